@@ -1,0 +1,22 @@
+//! Reading throughput on a generated GOTO-dominated 5-axis file (`postpro-examples`), into the
+//! whole tool path and through the streaming `check` summary. Criterion prints MiB/s.
+//!
+//! `cargo bench -p postpro-cl --bench read` (size: `POSTPRO_BENCH_MB`, default 32).
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use postpro_cl::{Source, read, summarize};
+
+fn bench(c: &mut Criterion) {
+    let mb: f64 = std::env::var("POSTPRO_BENCH_MB").ok().and_then(|v| v.parse().ok()).unwrap_or(32.0);
+    let text = postpro_examples::big_goto_file((mb * 1_048_576.0) as usize);
+    let source = Source::new("big.cl", text);
+    let mut group = c.benchmark_group("read");
+    group.throughput(Throughput::Bytes(source.text().len() as u64));
+    group.sample_size(10);
+    group.bench_function("tool_path", |b| b.iter(|| read(&source).items.len()));
+    group.bench_function("check_summary", |b| b.iter(|| summarize(&source).0.moves.total));
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,515 @@
+//! The typed tool path in the part frame: what the later stages (IKT, prediction, emission)
+//! consume. All lengths are millimetres, angles radians, feeds mm/min or mm/rev, whatever the
+//! file's units were; every item keeps the span of the statement it came from.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Isometry3, Point3, Unit, Vector3};
+
+use crate::diagnostic::Diagnostic;
+use crate::span::Span;
+
+/// A unit tool-axis vector, pointing from the tool tip towards the spindle.
+pub type ToolAxis = Unit<Vector3<f64>>;
+
+/// A tool path read from one CL file.
+#[derive(Clone, Debug, Default)]
+pub struct ToolPath {
+    /// The items in file order.
+    pub items: Vec<Item>,
+    /// Program-level facts.
+    pub info: ProgramInfo,
+    /// Warnings and errors, in file order.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl ToolPath {
+    /// True when at least one diagnostic is an error.
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics.iter().any(Diagnostic::is_error)
+    }
+
+    /// The linear moves, in order.
+    pub fn moves(&self) -> impl Iterator<Item = (&Move, Span)> {
+        self.items.iter().filter_map(|i| match &i.kind {
+            ItemKind::Move(m) => Some((m, i.span)),
+            _ => None,
+        })
+    }
+}
+
+/// Program-level facts gathered while reading.
+#[derive(Clone, Debug, Default)]
+pub struct ProgramInfo {
+    /// The CAM system, when the file says or its vocabulary gives it away.
+    pub cam_system: Option<CamSystem>,
+    /// The length unit the file was written in (values are converted to mm).
+    pub units: UnitsInfo,
+    /// PARTNO text.
+    pub part_name: Option<String>,
+    /// Words carried through without interpretation, with their counts and first use.
+    pub uninterpreted: BTreeMap<String, WordUse>,
+    /// Lines that are not APT (NX listing header and footer).
+    pub listing_lines: usize,
+    /// Statements read.
+    pub statements: usize,
+    /// The file is an APT part program (source language), not CL data.
+    pub apt_source: bool,
+}
+
+/// How often a word occurs and where first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WordUse {
+    /// Number of records.
+    pub count: usize,
+    /// The first record.
+    pub first: Span,
+    /// False for words the reader knows but that have no effect on the tool path (`PAINT`).
+    pub unknown: bool,
+}
+
+/// A CAM system recognised from the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum CamSystem {
+    /// Siemens NX (CLSF or Information-window listing).
+    #[serde(rename = "Siemens NX")]
+    SiemensNx,
+    /// Dassault CATIA V5.
+    #[serde(rename = "CATIA V5")]
+    CatiaV5,
+    /// PTC Creo.
+    #[serde(rename = "PTC Creo")]
+    Creo,
+    /// SOLIDWORKS CAM (`.apt`).
+    #[serde(rename = "SOLIDWORKS CAM")]
+    SolidworksCam,
+    /// CAMWorks (`.clt`).
+    #[serde(rename = "CAMWorks")]
+    CamWorks,
+    /// Makino FFCAM.
+    #[serde(rename = "Makino FFCAM")]
+    MakinoFfcam,
+    /// Autodesk Fusion (HSM APT post).
+    #[serde(rename = "Autodesk Fusion")]
+    Fusion,
+    /// The postpro example generator.
+    #[serde(rename = "postpro example generator")]
+    PostproExamples,
+}
+
+impl CamSystem {
+    /// Display name.
+    pub fn name(self) -> &'static str {
+        match self {
+            CamSystem::SiemensNx => "Siemens NX",
+            CamSystem::CatiaV5 => "CATIA V5",
+            CamSystem::Creo => "PTC Creo",
+            CamSystem::SolidworksCam => "SOLIDWORKS CAM",
+            CamSystem::CamWorks => "CAMWorks",
+            CamSystem::MakinoFfcam => "Makino FFCAM",
+            CamSystem::Fusion => "Autodesk Fusion",
+            CamSystem::PostproExamples => "postpro example generator",
+        }
+    }
+}
+
+/// A length unit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LengthUnit {
+    /// Millimetres.
+    #[default]
+    Mm,
+    /// Inches (converted to mm at 25.4).
+    Inch,
+}
+
+impl LengthUnit {
+    /// Millimetres per unit.
+    pub fn to_mm(self) -> f64 {
+        match self {
+            LengthUnit::Mm => 1.0,
+            LengthUnit::Inch => 25.4,
+        }
+    }
+
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            LengthUnit::Mm => "mm",
+            LengthUnit::Inch => "inch",
+        }
+    }
+}
+
+/// The file's length unit and where it came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UnitsInfo {
+    /// The unit.
+    pub unit: LengthUnit,
+    /// What decided it.
+    pub origin: UnitsOrigin,
+}
+
+/// What decided the file's length unit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UnitsOrigin {
+    /// A `UNITS`/`UNIT` statement.
+    Declared(Span),
+    /// The unit word of a `FEDRAT` (NX writes no UNITS statement).
+    FeedWord(Span),
+    /// Nothing in the file: millimetres assumed.
+    #[default]
+    Assumed,
+}
+
+/// One item of the tool path with the span of its statement.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Item {
+    /// The statement (or statements, for an arc with its end GOTO).
+    pub span: Span,
+    /// What it is.
+    pub kind: ItemKind,
+}
+
+/// What a tool-path item is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ItemKind {
+    /// A straight move (GOTO, FROM, GODLTA, a hole position in a cycle).
+    Move(Move),
+    /// A circular or helical arc (CIRCLE or MOVARC with its end GOTO, or evaluated APT motion).
+    Arc(Box<Arc>),
+    /// A NURBS curve (NX `NURBS`/`KNOT`/`CNTRL`).
+    Nurbs(Box<Nurbs>),
+    /// A tool change.
+    ToolChange(ToolChange),
+    /// A tool pre-selection (`SELECT/TOOL,n`).
+    ToolSelect(u32),
+    /// Tool geometry (`CUTTER`, `TLDATA`).
+    ToolShape(ToolShape),
+    /// Spindle state.
+    Spindle(Spindle),
+    /// Coolant state.
+    Coolant(Coolant),
+    /// Cutter radius compensation.
+    CutterComp(CutterComp),
+    /// A canned cycle starts (`CYCLE/…`); the following moves are hole positions.
+    CycleOn(Box<Cycle>),
+    /// The canned cycle ends (`CYCLE/OFF`).
+    CycleOff,
+    /// A dwell, in seconds or spindle revolutions.
+    Delay(Delay),
+    /// Program stop, with an optional message.
+    Stop(Option<String>),
+    /// Optional stop.
+    OptionalStop,
+    /// Operator or program text (PPRINT, INSERT, TPRINT, PARTNO, REMARK, operation names).
+    Text(TextKind, String),
+    /// A whole-line `$$` comment.
+    Comment(String),
+    /// An operation starts (`TOOL PATH/…`, `OPFEATSTART/…`).
+    OperationStart(String),
+    /// An operation ends (`END-OF-PATH`, `OPFEATEND/…`).
+    OperationEnd,
+    /// The frame the following points are written in changed.
+    Frame(Box<FrameChange>),
+    /// `MULTAX` on or off.
+    Multax(bool),
+    /// End of program (`END`).
+    End,
+    /// End of file (`FINI`).
+    Fini,
+    /// A record carried through without interpretation (unknown or passive word).
+    Record(Record),
+}
+
+/// How a move is made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Motion {
+    /// At rapid traverse (the one-shot `RAPID`).
+    Rapid,
+    /// At the programmed feed.
+    Feed(Feed),
+    /// No feed programmed yet.
+    Unset,
+}
+
+/// A programmed feed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Feed {
+    /// mm/min or mm/rev.
+    pub value: f64,
+    /// Per minute or per revolution.
+    pub per: FeedPer,
+}
+
+/// The time base of a feed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FeedPer {
+    /// mm/min.
+    Minute,
+    /// mm/rev.
+    Revolution,
+}
+
+/// Where a straight move came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MoveKind {
+    /// `GOTO`.
+    Goto,
+    /// `FROM` (the start point).
+    From,
+    /// `GODLTA` (incremental).
+    Godlta,
+    /// A hole position between `CYCLE/…` and `CYCLE/OFF`.
+    Hole,
+}
+
+/// A straight move to a tool-tip position with a tool axis, in the part frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Move {
+    /// Tool-tip position.
+    pub to: Point3<f64>,
+    /// Tool axis at the end point.
+    pub axis: ToolAxis,
+    /// Rapid or feed.
+    pub motion: Motion,
+    /// The statement.
+    pub kind: MoveKind,
+}
+
+/// A circular arc (or helix) from the current point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Arc {
+    /// Start point (the current point before the arc).
+    pub start: Point3<f64>,
+    /// Centre.
+    pub center: Point3<f64>,
+    /// Unit axis; the motion is counter-clockwise about it (right-hand rule).
+    pub normal: Unit<Vector3<f64>>,
+    /// Radius.
+    pub radius: f64,
+    /// End point (from the GOTO after the arc record).
+    pub end: Point3<f64>,
+    /// Swept angle, positive, full turns included.
+    pub sweep: f64,
+    /// Tool axis at the end.
+    pub axis: ToolAxis,
+    /// Rapid or feed.
+    pub motion: Motion,
+}
+
+impl Arc {
+    /// Length along the helix.
+    pub fn length(&self) -> f64 {
+        let rise = (self.end - self.start).dot(&self.normal);
+        (self.radius * self.sweep).hypot(rise)
+    }
+
+    /// The point at fraction `t` ∈ [0, 1] of the sweep.
+    pub fn point_at(&self, t: f64) -> Point3<f64> {
+        let u = self.start - self.center;
+        let rise = u.dot(&self.normal);
+        let radial = u - self.normal.into_inner() * rise;
+        let end_rise = (self.end - self.center).dot(&self.normal);
+        let rotation = nalgebra::UnitQuaternion::from_axis_angle(&self.normal, self.sweep * t);
+        self.center + rotation * radial + self.normal.into_inner() * (rise + (end_rise - rise) * t)
+    }
+}
+
+/// A NURBS curve, clamped at both ends: it starts at the current point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Nurbs {
+    /// Degree.
+    pub degree: usize,
+    /// The full (clamped) knot vector.
+    pub knots: Vec<f64>,
+    /// Control points; the first is the start point.
+    pub control: Vec<Point3<f64>>,
+    /// Tool axis along the curve.
+    pub axis: ToolAxis,
+    /// Rapid or feed.
+    pub motion: Motion,
+}
+
+impl Nurbs {
+    /// The point at parameter `u` (de Boor).
+    pub fn point_at(&self, u: f64) -> Point3<f64> {
+        let p = self.degree;
+        let n = self.control.len();
+        let lo = self.knots[p];
+        let hi = self.knots[n];
+        let u = u.clamp(lo, hi);
+        let mut k = p;
+        while k + 1 < n && self.knots[k + 1] <= u {
+            k += 1;
+        }
+        let mut d: Vec<Vector3<f64>> = (0..=p).map(|j| self.control[j + k - p].coords).collect();
+        for r in 1..=p {
+            for j in (r..=p).rev() {
+                let i = j + k - p;
+                let den = self.knots[i + p + 1 - r] - self.knots[i];
+                let a = if den > 0.0 { (u - self.knots[i]) / den } else { 0.0 };
+                d[j] = d[j - 1] * (1.0 - a) + d[j] * a;
+            }
+        }
+        Point3::from(d[p])
+    }
+
+    /// The parameter range.
+    pub fn domain(&self) -> (f64, f64) {
+        (self.knots[self.degree], self.knots[self.control.len()])
+    }
+
+    /// The end point.
+    pub fn end(&self) -> Point3<f64> {
+        self.control.last().copied().unwrap_or_else(Point3::origin)
+    }
+}
+
+/// A tool change.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ToolChange {
+    /// Tool number.
+    pub number: u32,
+    /// Length-offset register, when given (`LOAD/TOOL,1,ADJUST,1`).
+    pub adjust: Option<u32>,
+    /// Tool name, when the file gives one.
+    pub name: Option<String>,
+}
+
+/// Tool geometry.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ToolShape {
+    /// Diameter, mm.
+    pub diameter: f64,
+    /// Corner (lower) radius, mm.
+    pub corner_radius: f64,
+    /// Length (height), mm, when given.
+    pub length: Option<f64>,
+}
+
+/// Spindle state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Spindle {
+    /// On, with a speed and direction.
+    On {
+        /// Speed.
+        speed: f64,
+        /// RPM or surface speed.
+        unit: SpindleUnit,
+        /// Direction.
+        clockwise: bool,
+    },
+    /// Off.
+    Off,
+}
+
+/// The unit of a spindle speed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpindleUnit {
+    /// Revolutions per minute.
+    Rpm,
+    /// Constant surface speed as written (`SFM`/`SMM`): per minute, in the file's convention
+    /// (m/min in metric files, ft/min in inch files).
+    SurfaceSpeed,
+}
+
+/// Coolant state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coolant {
+    /// On (unspecified kind).
+    On,
+    /// Flood.
+    Flood,
+    /// Mist.
+    Mist,
+    /// Through the tool.
+    Through,
+    /// Air blast.
+    Air,
+    /// Off.
+    Off,
+}
+
+/// Cutter radius compensation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CutterComp {
+    /// Tool left of the path.
+    Left,
+    /// Tool right of the path.
+    Right,
+    /// On, side given later (CAMWorks writes `CUTCOM/ON` then `CUTCOM/LEFT`).
+    On,
+    /// Off.
+    Off,
+}
+
+/// A canned cycle as written: its kind and its keyword/value parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cycle {
+    /// `DRILL`, `DEEP`, `DEEP2`, `TAP`, `BORE`, `INIT`, `ON`, … (upper case).
+    pub kind: String,
+    /// Parameters in order: an optional keyword and a value **as written** (`NAN` for a keyword
+    /// without a value). Vendors mix lengths, feeds, counts and times here, so values are not
+    /// converted; multiply lengths by `length_scale` for mm.
+    pub params: Vec<(Option<String>, f64)>,
+    /// Millimetres per length unit of the file (1 or 25.4).
+    pub length_scale: f64,
+}
+
+/// A dwell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Delay {
+    /// Seconds.
+    Seconds(f64),
+    /// Spindle revolutions.
+    Revolutions(f64),
+}
+
+/// The kind of a text item.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TextKind {
+    /// `PPRINT`: operator message.
+    Pprint,
+    /// `INSERT`: text passed straight to the NC program.
+    Insert,
+    /// `TPRINT`: tool text.
+    Tprint,
+    /// `PARTNO`.
+    Partno,
+    /// `REMARK` (APT source).
+    Remark,
+}
+
+/// A change of the frame the CL points are written in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameChange {
+    /// The statement that changed it.
+    pub source: FrameSource,
+    /// The transform from the frame the next points are written in to the part frame.
+    pub to_part: Isometry3<f64>,
+}
+
+/// The statement behind a frame change.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FrameSource {
+    /// NX `MSYS`: the machine coordinate system (origin, X axis, Y axis).
+    Msys,
+    /// CAMWorks `ROTABL`: an incremental table rotation (axis letter, angle in radians).
+    Rotabl(char, f64),
+    /// SOLIDWORKS CAM `CSYS`: the setup frame (world to setup, row-major 3×4). The points are
+    /// written in the world frame already, so the points are not moved.
+    Csys([f64; 12]),
+}
+
+/// A record carried through without interpretation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Record {
+    /// The major word, canonical (upper case).
+    pub word: String,
+    /// The text after the slash, as written.
+    pub args: String,
+}

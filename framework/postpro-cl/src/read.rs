@@ -1,0 +1,1651 @@
+//! Statements to the tool path: the modal state of a CL file (position, tool axis, feed, rapid,
+//! frame, units), the multi-record constructs (arc + end GOTO, NURBS + KNOT + CNTRL, cycles),
+//! and the diagnostics.
+//!
+//! Frames: the **part frame** is the frame in effect at the first motion (the NX `MSYS` of the
+//! first operation, or the file's own frame). Points written after a later `MSYS` or a CAMWorks
+//! `ROTABL` are transformed into it. SOLIDWORKS CAM writes its points in the world frame already
+//! (its `CSYS` maps world to the setup: the holes of the repeated set-ups in
+//! `manufacture3-top.apt` satisfy it), so `CSYS` is recorded and does not move points.
+
+use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
+
+use crate::diagnostic::{Diagnostic, Severity};
+use crate::model::*;
+use crate::records::{Record as RawRecord, Splitter, Unit as RawUnit};
+use crate::span::{Source, Span};
+use crate::syntax::{self, Arg, Body, Statement, SyntaxIssue, Value};
+use crate::words::{Word, canonical};
+
+/// Where the items of a tool path go: a `Vec` for the whole tool path, or a streaming consumer
+/// (the `check` summary) that keeps no items.
+pub trait ItemSink {
+    /// Takes the next item.
+    fn push(&mut self, item: Item);
+}
+
+impl ItemSink for Vec<Item> {
+    fn push(&mut self, item: Item) {
+        Vec::push(self, item);
+    }
+}
+
+/// Reads a CL text into a tool path. Never panics; problems are in `diagnostics`.
+pub fn read(source: &Source) -> ToolPath {
+    let mut items = Vec::with_capacity(source.text().len() / 48);
+    let (info, diagnostics) = read_into(source, &mut items);
+    ToolPath { items, info, diagnostics }
+}
+
+/// Reads a CL text, handing each item to `sink` as soon as it is complete.
+pub fn read_into(source: &Source, sink: &mut impl ItemSink) -> (ProgramInfo, Vec<Diagnostic>) {
+    let mut b = Builder::new(source.text(), sink);
+    for unit in Splitter::new(source.text()) {
+        b.unit(unit);
+    }
+    b.finish()
+}
+
+/// At most this many diagnostics are kept; the rest are counted.
+const MAX_DIAGNOSTICS: usize = 10_000;
+
+/// Tolerance on a unit vector's length before a warning.
+const UNIT_TOLERANCE: f64 = 1e-3;
+
+struct PendingArc {
+    center: Point3<f64>,
+    normal: Unit<Vector3<f64>>,
+    radius: Option<f64>,
+    /// Extra full turns (NX `TIMES,n`) or the sweep in radians (MOVARC).
+    turns: u32,
+    sweep: Option<f64>,
+    span: Span,
+    word: &'static str,
+}
+
+struct PendingNurbs {
+    knots: Vec<f64>,
+    control: Vec<Point3<f64>>,
+    span: Span,
+}
+
+struct Builder<'s, S> {
+    src: &'s str,
+    sink: &'s mut S,
+    diags: Vec<Diagnostic>,
+    suppressed: usize,
+    info: ProgramInfo,
+    unit: LengthUnit,
+    scale: f64,
+    /// Local (the frame points are written in) to part.
+    to_part: Isometry3<f64>,
+    identity_frame: bool,
+    /// The latest MSYS (local to world) and the world-to-part transform fixed at the first motion.
+    msys: Isometry3<f64>,
+    world_to_part: Option<Isometry3<f64>>,
+    table: UnitQuaternion<f64>,
+    axis: ToolAxis,
+    position: Option<Point3<f64>>,
+    rapid: bool,
+    feed: Motion,
+    in_cycle: bool,
+    indirv: Option<Vector3<f64>>,
+    arc: Option<PendingArc>,
+    nurbs: Option<PendingNurbs>,
+    tool_name: Option<String>,
+    last_spindle: Option<(f64, SpindleUnit)>,
+    camworks_vocabulary: bool,
+    cam_votes: Vec<CamSystem>,
+    fini_at: Option<Span>,
+    warned_after_fini: bool,
+    feed_unit_conflicts: usize,
+    apt_source_statements: usize,
+    first_apt_source: Option<Span>,
+}
+
+impl<'s, S: ItemSink> Builder<'s, S> {
+    fn new(src: &'s str, sink: &'s mut S) -> Self {
+        let mut b = Builder {
+            src,
+            sink,
+            diags: Vec::new(),
+            suppressed: 0,
+            info: ProgramInfo::default(),
+            unit: LengthUnit::Mm,
+            scale: 1.0,
+            to_part: Isometry3::identity(),
+            identity_frame: true,
+            msys: Isometry3::identity(),
+            world_to_part: None,
+            table: UnitQuaternion::identity(),
+            axis: Vector3::z_axis(),
+            position: None,
+            rapid: false,
+            feed: Motion::Unset,
+            in_cycle: false,
+            indirv: None,
+            arc: None,
+            nurbs: None,
+            tool_name: None,
+            last_spindle: None,
+            camworks_vocabulary: false,
+            cam_votes: Vec::new(),
+            fini_at: None,
+            warned_after_fini: false,
+            feed_unit_conflicts: 0,
+            apt_source_statements: 0,
+            first_apt_source: None,
+        };
+        b.info.units = prescan_units(src);
+        b.unit = b.info.units.unit;
+        b.scale = b.unit.to_mm();
+        b
+    }
+
+    // ----- diagnostics -------------------------------------------------------------------
+
+    fn diag(&mut self, d: Diagnostic) {
+        if self.diags.len() >= MAX_DIAGNOSTICS {
+            self.suppressed += 1;
+            return;
+        }
+        self.diags.push(d);
+    }
+
+    fn error(&mut self, st: &Ctx<'_>, span: Span, message: impl Into<String>, expected: impl Into<String>) {
+        let word = Some(st.word_name.clone());
+        self.diag(
+            Diagnostic::new(Severity::Error, "cl::statement", span, message.into(), expected.into()).with_word(word),
+        );
+    }
+
+    fn warn(
+        &mut self,
+        st: &Ctx<'_>,
+        span: Span,
+        message: impl Into<String>,
+        label: impl Into<String>,
+        help: Option<String>,
+    ) {
+        let word = Some(st.word_name.clone());
+        let mut d =
+            Diagnostic::new(Severity::Warning, "cl::statement", span, message.into(), label.into()).with_word(word);
+        d.help = help;
+        self.diag(d);
+    }
+
+    fn emit(&mut self, span: Span, kind: ItemKind) {
+        self.sink.push(Item { span, kind });
+    }
+
+    // ----- units of the file ---------------------------------------------------------------
+
+    fn unit(&mut self, unit: RawUnit<'_>) {
+        match unit {
+            RawUnit::Statement(rec) => self.record(&rec),
+            RawUnit::Comment { span, text } => {
+                self.vote_comment(text);
+                self.emit(span, ItemKind::Comment(text.trim_end().to_string()));
+            }
+            RawUnit::Listing => {
+                self.info.listing_lines += 1;
+                self.cam_votes.push(CamSystem::SiemensNx);
+            }
+        }
+    }
+
+    fn record(&mut self, rec: &RawRecord<'_>) {
+        self.info.statements += 1;
+        if let Some(fini) = self.fini_at
+            && !self.warned_after_fini
+        {
+            self.warned_after_fini = true;
+            let span = rec.span;
+            self.diag(
+                Diagnostic::new(
+                    Severity::Warning,
+                    "cl::after-fini",
+                    span,
+                    "statements after FINI".into(),
+                    "read as part of the program".into(),
+                )
+                .with_help(format!("FINI is at byte {}; everything after it is read too", fini.start)),
+            );
+        }
+        if let Some(ign) = rec.ignored {
+            self.diag(
+                Diagnostic::new(
+                    Severity::Warning,
+                    "cl::continuation",
+                    ign,
+                    "text after a `$` continuation mark is ignored".into(),
+                    "ignored (classic APT)".into(),
+                )
+                .with_help("write `$$` to start a comment"),
+            );
+        }
+        if rec.dangling_continuation {
+            let end = rec.span.end();
+            self.diag(Diagnostic::new(
+                Severity::Warning,
+                "cl::continuation",
+                Span::new(end, end),
+                "the file ends inside a continued statement".into(),
+                "expected a continuation line after `$`".into(),
+            ));
+        }
+        let parsed = syntax::statement(&rec.text);
+        let stmt = match parsed {
+            Ok(s) => s,
+            Err(e) => {
+                let at = rec.source_offset(e.at.min(rec.text.len().saturating_sub(1)));
+                let span = if e.at >= rec.text.len() {
+                    Span::new(rec.span.end(), rec.span.end())
+                } else {
+                    Span::new(at, at + 1)
+                };
+                let word = rec.text.split('/').next().map(canonical);
+                self.diag(
+                    Diagnostic::new(
+                        Severity::Error,
+                        "cl::syntax",
+                        span,
+                        "malformed statement".into(),
+                        format!("expected {}", e.expected),
+                    )
+                    .with_word(word.clone()),
+                );
+                self.finish_nurbs();
+                self.emit(
+                    rec.span,
+                    ItemKind::Record(Record { word: word.unwrap_or_default(), args: rec.text.to_string() }),
+                );
+                return;
+            }
+        };
+        let word_name = match stmt.word {
+            Word::Goto => String::from("GOTO"),
+            Word::AptSource if stmt.major.contains('=') => String::from("APT ASSIGNMENT"),
+            _ => canonical(stmt.major),
+        };
+        let ctx = Ctx { rec, word_name };
+        if rec.open_quote {
+            let end = rec.span.end();
+            self.warn(&ctx, Span::new(end, end), "unterminated quoted text", "expected a closing `'`", None);
+        }
+        for issue in &stmt.issues {
+            let SyntaxIssue::MissingComma { at } = *issue;
+            let span = rec.source_span(at, at + 1);
+            self.warn(
+                &ctx,
+                span,
+                "arguments separated by blanks only",
+                "expected `,` here; read as a separate argument",
+                None,
+            );
+        }
+        self.statement(&ctx, &stmt);
+    }
+
+    fn statement(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let span = cx.rec.span;
+        if self.nurbs.is_some() && !matches!(st.word, Word::Knot | Word::Cntrl) {
+            self.finish_nurbs();
+        }
+        if self.arc.is_some() && is_motion(st.word) && st.word != Word::Goto {
+            self.abandon_arc(cx);
+        }
+        match st.word {
+            Word::Goto => self.goto(cx, st),
+            Word::From => self.from(cx, st),
+            Word::Godlta => self.godlta(cx, st),
+            Word::Rapid => {
+                if let Body::Args(a) = &st.body
+                    && !a.is_empty()
+                {
+                    self.warn(cx, arg_span(cx, &a[0]), "RAPID takes no arguments", "ignored", None);
+                }
+                self.rapid = true;
+            }
+            Word::Fedrat => self.fedrat(cx, st),
+            Word::Circle => self.circle(cx, st),
+            Word::Movarc => self.movarc(cx, st),
+            Word::Nurbs => self.nurbs_start(cx),
+            Word::Knot | Word::Cntrl => self.nurbs_part(cx, st),
+            Word::Multax => {
+                let on = !first_word(st).is_some_and(|w| w.eq_ignore_ascii_case("OFF"));
+                self.emit(span, ItemKind::Multax(on));
+            }
+            Word::Tlaxis => self.tlaxis(cx, st),
+            Word::Indirv => {
+                if let Some(v) = self.vector_args(cx, st, "INDIRV/i,j,k") {
+                    self.indirv = Some(self.to_part.rotation * v);
+                }
+            }
+            Word::GoMotion => self.go_motion(cx, st),
+            Word::Loadtl | Word::Load | Word::Select | Word::Toolno => self.tool(cx, st),
+            Word::Tldata | Word::Cutter => self.tool_shape(cx, st),
+            Word::Spindl => self.spindle(cx, st),
+            Word::Coolnt => self.coolant(cx, st),
+            Word::Cutcom => self.cutcom(cx, st),
+            Word::Cycle => self.cycle(cx, st),
+            Word::Delay => self.delay(cx, st),
+            Word::Stop | Word::Opstop => {
+                let text = text_of(st).filter(|t| !t.is_empty()).map(str::to_string);
+                let kind = if st.word == Word::Stop { ItemKind::Stop(text) } else { ItemKind::OptionalStop };
+                self.emit(span, kind);
+            }
+            Word::Pprint | Word::Insert | Word::Tprint | Word::Partno | Word::Remark => self.text(cx, st),
+            Word::OpFeatStart => {
+                self.camworks_vocabulary = true;
+                self.cam_votes.push(CamSystem::CamWorks);
+                self.emit(span, ItemKind::OperationStart(text_of(st).unwrap_or_default().to_string()));
+            }
+            Word::OpFeatEnd => self.emit(span, ItemKind::OperationEnd),
+            Word::ToolPath => {
+                self.cam_votes.push(CamSystem::SiemensNx);
+                let (op, tool) = tool_path_names(st);
+                self.tool_name = tool;
+                self.emit(span, ItemKind::OperationStart(op));
+            }
+            Word::EndOfPath => self.emit(span, ItemKind::OperationEnd),
+            Word::Msys => self.msys(cx, st),
+            Word::Csys => self.csys(cx, st),
+            Word::Rotabl => self.rotabl(cx, st),
+            Word::Units => self.units(cx, st),
+            Word::Trntyp => self.passive(cx, st),
+            Word::End => self.emit(span, ItemKind::End),
+            Word::Fini => {
+                self.fini_at = Some(span);
+                self.emit(span, ItemKind::Fini);
+            }
+            Word::Passive => self.passive(cx, st),
+            Word::AptSource => self.apt_source(cx, st),
+            Word::Other => self.carry(cx, st, true),
+        }
+    }
+
+    // ----- motion ---------------------------------------------------------------------------
+
+    /// Numbers of a statement; `None` (after a diagnostic) when an argument is not a number.
+    /// Trailing empty arguments are dropped with a warning.
+    fn numbers(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, form: &str) -> Option<smallvec::SmallVec<[f64; 8]>> {
+        let args = match &st.body {
+            Body::Args(a) => a.as_slice(),
+            _ => &[],
+        };
+        let mut n = args.len();
+        while n > 0 && args[n - 1].value == Value::Empty {
+            n -= 1;
+        }
+        if n < args.len() {
+            self.warn(cx, arg_span(cx, &args[n]), "trailing comma", "empty argument ignored", None);
+        }
+        let mut out = smallvec::SmallVec::new();
+        for a in &args[..n] {
+            match a.value {
+                Value::Num(v) if v.is_finite() => out.push(v),
+                Value::Num(_) => {
+                    self.error(
+                        cx,
+                        arg_span(cx, a),
+                        "number out of range",
+                        format!("expected a finite number ({form})"),
+                    );
+                    return None;
+                }
+                _ => {
+                    self.error(
+                        cx,
+                        arg_span(cx, a),
+                        format!("{} expects numbers", cx.word_name),
+                        format!("expected a number ({form})"),
+                    );
+                    return None;
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// APT source refers to named geometry: `goto/setpt2`, `goto/pb,-1,0,1`, `tlaxis/atangl,2,45`.
+    fn is_symbolic(st: &Statement<'_>) -> bool {
+        matches!(&st.body, Body::Args(a) if a.first().is_some_and(|a| matches!(a.value, Value::Word(_))))
+    }
+
+    fn point(&self, x: f64, y: f64, z: f64) -> Point3<f64> {
+        let p = Point3::new(x * self.scale, y * self.scale, z * self.scale);
+        if self.identity_frame { p } else { self.to_part * p }
+    }
+
+    fn direction(&mut self, cx: &Ctx<'_>, span: Span, i: f64, j: f64, k: f64) -> Option<ToolAxis> {
+        let v = Vector3::new(i, j, k);
+        let norm = v.norm();
+        if norm.is_nan() || norm <= 1e-9 {
+            self.error(cx, span, "zero direction vector", "expected a unit vector (i,j,k)");
+            return None;
+        }
+        if (norm - 1.0).abs() > UNIT_TOLERANCE {
+            self.warn(cx, span, format!("direction vector has length {norm:.6}"), "normalised to unit length", None);
+        }
+        let v = if self.identity_frame { v } else { self.to_part.rotation * v };
+        Some(Unit::new_normalize(v))
+    }
+
+    fn fix_part_frame(&mut self) {
+        if self.world_to_part.is_none() {
+            self.world_to_part = Some(self.msys.inverse());
+            self.update_frame();
+        }
+    }
+
+    fn update_frame(&mut self) {
+        let world_to_part = self.world_to_part.unwrap_or_else(|| self.msys.inverse());
+        self.to_part = world_to_part * self.msys * Isometry3::from_parts(Translation3::identity(), self.table);
+        self.identity_frame = self.to_part.translation.vector.norm() < 1e-12 && self.to_part.rotation.angle() < 1e-12;
+    }
+
+    fn motion(&mut self) -> Motion {
+        if std::mem::take(&mut self.rapid) { Motion::Rapid } else { self.feed }
+    }
+
+    fn goto(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        if Self::is_symbolic(st) {
+            return self.apt_source(cx, st);
+        }
+        let Some(v) = self.numbers(cx, st, "GOTO/x,y,z[,i,j,k]") else { return };
+        if v.len() != 3 && v.len() != 6 {
+            let span = body_span(cx, st);
+            return self.error(
+                cx,
+                span,
+                format!("GOTO has {} values", v.len()),
+                "expected 3 values (x,y,z) or 6 (x,y,z,i,j,k)",
+            );
+        }
+        self.fix_part_frame();
+        if v.len() == 6 {
+            let span = body_span(cx, st);
+            let Some(axis) = self.direction(cx, span, v[3], v[4], v[5]) else { return };
+            self.axis = axis;
+        }
+        let to = self.point(v[0], v[1], v[2]);
+        if self.arc.is_some() {
+            return self.finish_arc(cx, to);
+        }
+        let motion = self.motion();
+        let kind = if self.in_cycle { MoveKind::Hole } else { MoveKind::Goto };
+        self.position = Some(to);
+        self.emit(cx.rec.span, ItemKind::Move(Move { to, axis: self.axis, motion, kind }));
+    }
+
+    fn from(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        if Self::is_symbolic(st) {
+            return self.apt_source(cx, st);
+        }
+        let Some(v) = self.numbers(cx, st, "FROM/x,y,z[,i,j,k]") else { return };
+        if v.len() != 3 && v.len() != 6 {
+            let span = body_span(cx, st);
+            return self.error(
+                cx,
+                span,
+                format!("FROM has {} values", v.len()),
+                "expected 3 values (x,y,z) or 6 (x,y,z,i,j,k)",
+            );
+        }
+        self.fix_part_frame();
+        if v.len() == 6 {
+            let span = body_span(cx, st);
+            let Some(axis) = self.direction(cx, span, v[3], v[4], v[5]) else { return };
+            self.axis = axis;
+        }
+        let to = self.point(v[0], v[1], v[2]);
+        self.position = Some(to);
+        self.emit(
+            cx.rec.span,
+            ItemKind::Move(Move { to, axis: self.axis, motion: Motion::Rapid, kind: MoveKind::From }),
+        );
+    }
+
+    fn godlta(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let Some(v) = self.numbers(cx, st, "GODLTA/dz or GODLTA/dx,dy,dz") else { return };
+        let Some(from) = self.position else {
+            if self.first_apt_source.is_some() {
+                return self.apt_source(cx, st);
+            }
+            let span = cx.rec.span;
+            return self.error(
+                cx,
+                span,
+                "GODLTA with no current position",
+                "expected a GOTO or FROM before an incremental move",
+            );
+        };
+        let delta = match v.len() {
+            1 => self.axis.into_inner() * (v[0] * self.scale),
+            3 => {
+                let d = Vector3::new(v[0], v[1], v[2]) * self.scale;
+                if self.identity_frame { d } else { self.to_part.rotation * d }
+            }
+            n => {
+                let span = body_span(cx, st);
+                return self.error(
+                    cx,
+                    span,
+                    format!("GODLTA has {n} values"),
+                    "expected 1 value (along the tool axis) or 3 (dx,dy,dz)",
+                );
+            }
+        };
+        let to = from + delta;
+        let motion = self.motion();
+        self.position = Some(to);
+        self.emit(cx.rec.span, ItemKind::Move(Move { to, axis: self.axis, motion, kind: MoveKind::Godlta }));
+    }
+
+    fn fedrat(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let Body::Args(args) = &st.body else {
+            let span = cx.rec.span;
+            return self.error(cx, span, "FEDRAT without a value", "expected FEDRAT/f[,MMPM|IPM|MMPR|IPR]");
+        };
+        let mut value = None;
+        let mut unit: Option<(FeedPer, Option<LengthUnit>, Span)> = None;
+        for a in args {
+            match a.value {
+                Value::Num(v) if value.is_none() => value = Some((v, arg_span(cx, a))),
+                Value::Word(w) => {
+                    let u = match w.to_ascii_uppercase().as_str() {
+                        "MMPM" => (FeedPer::Minute, Some(LengthUnit::Mm)),
+                        "IPM" => (FeedPer::Minute, Some(LengthUnit::Inch)),
+                        "MMPR" => (FeedPer::Revolution, Some(LengthUnit::Mm)),
+                        "IPR" => (FeedPer::Revolution, Some(LengthUnit::Inch)),
+                        "PERMIN" | "FPM" => (FeedPer::Minute, None),
+                        "PERREV" | "FPR" => (FeedPer::Revolution, None),
+                        _ => {
+                            self.warn(
+                                cx,
+                                arg_span(cx, a),
+                                format!("unknown feed word `{w}`"),
+                                "ignored",
+                                Some("known: MMPM, IPM, MMPR, IPR, PERMIN, PERREV".into()),
+                            );
+                            continue;
+                        }
+                    };
+                    unit = Some((u.0, u.1, arg_span(cx, a)));
+                }
+                Value::Empty => {}
+                _ => self.warn(cx, arg_span(cx, a), "unexpected FEDRAT argument", "ignored", None),
+            }
+        }
+        let Some((v, vspan)) = value else {
+            let span = body_span(cx, st);
+            return self.error(cx, span, "FEDRAT without a value", "expected a feed value");
+        };
+        if v < 0.0 {
+            return self.error(cx, vspan, "negative feed", "expected a feed ≥ 0");
+        }
+        let (per, length) = unit.map_or((FeedPer::Minute, None), |(p, l, _)| (p, l));
+        if let (Some(len), Some((_, _, uspan))) = (length, unit)
+            && len != self.unit
+        {
+            self.feed_unit_conflicts += 1;
+            if self.feed_unit_conflicts == 1 {
+                let file = self.unit.name();
+                let origin = match self.info.units.origin {
+                    UnitsOrigin::Declared(_) => "the UNITS statement",
+                    UnitsOrigin::FeedWord(_) => "the first FEDRAT",
+                    UnitsOrigin::Assumed => "the default",
+                };
+                self.warn(
+                    cx,
+                    uspan,
+                    format!("feed unit contradicts the file's units ({file}, from {origin})"),
+                    format!(
+                        "read as {file} per {} to stay consistent with the coordinates",
+                        if per == FeedPer::Minute { "minute" } else { "revolution" }
+                    ),
+                    Some("check the CAM post's unit settings; reported once per file".into()),
+                );
+            }
+        }
+        if v == 0.0 {
+            self.warn(cx, vspan, "zero feed", "the moves that follow do not progress", None);
+        }
+        self.feed = Motion::Feed(Feed { value: v * self.scale, per });
+    }
+
+    // ----- arcs -----------------------------------------------------------------------------
+
+    fn circle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let Body::Args(args) = &st.body else {
+            let span = cx.rec.span;
+            return self.error(cx, span, "CIRCLE without arguments", "expected CIRCLE/cx,cy,cz,i,j,k[,r,…]");
+        };
+        let mut nums: smallvec::SmallVec<[f64; 16]> = smallvec::SmallVec::new();
+        let mut direction = None;
+        let mut turns = 0u32;
+        let mut i = 0;
+        while i < args.len() {
+            let a = &args[i];
+            match a.value {
+                Value::Num(v) => nums.push(v),
+                Value::Word(w) if w.eq_ignore_ascii_case("CLOCKWISE") || w.eq_ignore_ascii_case("CLW") => {
+                    direction = Some(-1.0)
+                }
+                Value::Word(w) if w.eq_ignore_ascii_case("COUNTERCLOCKWISE") || w.eq_ignore_ascii_case("CCLW") => {
+                    direction = Some(1.0)
+                }
+                Value::Word(w) if w.eq_ignore_ascii_case("TIMES") => {
+                    match args.get(i + 1).map(|a| a.value) {
+                        Some(Value::Num(n)) if n >= 1.0 && n.fract() == 0.0 && n < 1e6 => turns = n as u32,
+                        _ => {
+                            return self.error(
+                                cx,
+                                arg_span(cx, a),
+                                "TIMES needs a whole number of turns",
+                                "expected TIMES,n with n ≥ 1",
+                            );
+                        }
+                    }
+                    i += 1;
+                }
+                Value::Empty => {}
+                _ => {
+                    return self.error(
+                        cx,
+                        arg_span(cx, a),
+                        "unexpected CIRCLE argument",
+                        "expected a number, CLOCKWISE, COUNTERCLOCKWISE or TIMES,n",
+                    );
+                }
+            }
+            i += 1;
+        }
+        if nums.len() < 6 || nums.iter().any(|v| !v.is_finite()) {
+            let span = body_span(cx, st);
+            return self.error(
+                cx,
+                span,
+                format!("CIRCLE has {} numbers", nums.len()),
+                "expected at least the centre and axis: cx,cy,cz,i,j,k[,r]",
+            );
+        }
+        let span = body_span(cx, st);
+        let Some(mut normal) = self.direction(cx, span, nums[3], nums[4], nums[5]) else { return };
+        if direction == Some(-1.0) {
+            normal = -normal;
+        }
+        let radius = nums.get(6).map(|r| r * self.scale);
+        if radius.is_some_and(|r| r <= 0.0) {
+            return self.error(cx, span, "CIRCLE radius is not positive", "expected a radius > 0");
+        }
+        // NX TIMES,n: n turns in all, i.e. n-1 full turns besides the final partial one.
+        let turns = turns.saturating_sub(1);
+        let center = self.point(nums[0], nums[1], nums[2]);
+        self.arc = Some(PendingArc { center, normal, radius, turns, sweep: None, span: cx.rec.span, word: "CIRCLE" });
+    }
+
+    fn movarc(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let Body::Args(args) = &st.body else {
+            let span = cx.rec.span;
+            return self.error(cx, span, "MOVARC without arguments", "expected MOVARC/cx,cy,cz,i,j,k,r,ANGLE,deg");
+        };
+        let mut nums: smallvec::SmallVec<[f64; 8]> = smallvec::SmallVec::new();
+        let mut angle = None;
+        let mut k = 0;
+        while k < args.len() {
+            match args[k].value {
+                Value::Num(v) => nums.push(v),
+                Value::Word(w) if w.eq_ignore_ascii_case("ANGLE") => {
+                    if let Some(Value::Num(a)) = args.get(k + 1).map(|a| a.value) {
+                        angle = Some(a);
+                        k += 1;
+                    }
+                }
+                _ => {}
+            }
+            k += 1;
+        }
+        let span = body_span(cx, st);
+        let (Some(angle), 7) = (angle, nums.len()) else {
+            return self.error(cx, span, "malformed MOVARC", "expected MOVARC/cx,cy,cz,i,j,k,r,ANGLE,deg");
+        };
+        let Some(mut normal) = self.direction(cx, span, nums[3], nums[4], nums[5]) else { return };
+        if angle < 0.0 {
+            normal = -normal;
+        }
+        let sweep = angle.abs().to_radians();
+        let center = self.point(nums[0], nums[1], nums[2]);
+        let radius = Some(nums[6] * self.scale);
+        self.arc = Some(PendingArc {
+            center,
+            normal,
+            radius,
+            turns: 0,
+            sweep: Some(sweep),
+            span: cx.rec.span,
+            word: "MOVARC",
+        });
+    }
+
+    fn abandon_arc(&mut self, cx: &Ctx<'_>) {
+        if let Some(arc) = self.arc.take() {
+            let span = arc.span;
+            self.error(
+                cx,
+                span,
+                format!("{} is not followed by its end point", arc.word),
+                "expected a GOTO to the arc's end point next",
+            );
+        }
+    }
+
+    fn finish_arc(&mut self, cx: &Ctx<'_>, end: Point3<f64>) {
+        let Some(arc) = self.arc.take() else { return };
+        let span = arc.span.to(cx.rec.span);
+        let Some(start) = self.position else {
+            return self.error(
+                cx,
+                arc.span,
+                format!("{} with no start point", arc.word),
+                "expected a GOTO or FROM before the arc",
+            );
+        };
+        let n = arc.normal.into_inner();
+        let radial = |p: Point3<f64>| {
+            let d = p - arc.center;
+            d - n * d.dot(&n)
+        };
+        let (rs, re) = (radial(start), radial(end));
+        let radius = arc.radius.unwrap_or_else(|| rs.norm());
+        // Files print 4 to 6 decimals: allow for their rounding, in the file's unit.
+        let tol = (radius * 1e-3).max(0.005 * self.scale);
+        if (rs.norm() - radius).abs() > tol || (re.norm() - radius).abs() > tol {
+            let (ds, de) = (rs.norm() - radius, re.norm() - radius);
+            self.warn(
+                cx,
+                span,
+                format!(
+                    "{} end points are off the circle (start {ds:+.4} mm, end {de:+.4} mm from r = {radius:.4})",
+                    arc.word
+                ),
+                "arc kept as written",
+                None,
+            );
+        }
+        if rs.norm() < 1e-9 || re.norm() < 1e-9 {
+            return self.error(
+                cx,
+                span,
+                format!("{} starts or ends at its centre", arc.word),
+                "expected end points on the circle",
+            );
+        }
+        let mut sweep = rs.cross(&re).dot(&n).atan2(rs.dot(&re));
+        if sweep <= 1e-12 {
+            sweep += std::f64::consts::TAU;
+        }
+        sweep += f64::from(arc.turns) * std::f64::consts::TAU;
+        if let Some(given) = arc.sweep {
+            let full = (given / std::f64::consts::TAU).floor();
+            let candidate = sweep % std::f64::consts::TAU + full * std::f64::consts::TAU;
+            sweep = if (candidate - given).abs() < 1e-3 { candidate } else { given.max(sweep) };
+        }
+        let motion = self.motion();
+        self.position = Some(end);
+        let arc = Arc { start, center: arc.center, normal: arc.normal, radius, end, sweep, axis: self.axis, motion };
+        self.emit(span, ItemKind::Arc(Box::new(arc)));
+    }
+
+    /// `TLON,GOFWD/(CIRCLE/cx,cy,cz,r),ON,(LINE/x1,y1,z1,x2,y2,z2)`: the arc from the current point
+    /// around the circle, leaving in the INDIRV direction, ending on the line.
+    fn go_motion(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let span = cx.rec.span;
+        let expected = "expected TLON,GOFWD/(CIRCLE/cx,cy,cz,r),ON,(LINE/x1,y1,z1,x2,y2,z2)";
+        let Body::Args(args) = &st.body else { return self.apt_source(cx, st) };
+        let groups: smallvec::SmallVec<[(&str, &Arg<'_>); 2]> =
+            args.iter().filter_map(|a| if let Value::Group(g) = a.value { Some((g, a)) } else { None }).collect();
+        let modifier_on = args.iter().any(|a| matches!(a.value, Value::Word(w) if w.eq_ignore_ascii_case("ON")));
+        if groups.len() != 2 || !modifier_on || !st.major.to_ascii_uppercase().ends_with("GOFWD") {
+            return self.apt_source(cx, st);
+        }
+        let parse_group = |(g, a): (&str, &Arg<'_>)| -> Option<(Word, Vec<f64>, Span)> {
+            let s = syntax::group_statement(g).ok()?;
+            let nums = match &s.body {
+                Body::Args(x) => x
+                    .iter()
+                    .map(|x| if let Value::Num(v) = x.value { Some(v) } else { None })
+                    .collect::<Option<Vec<_>>>()?,
+                _ => return None,
+            };
+            Some((s.word, nums, arg_span(cx, a)))
+        };
+        let (Some(circle), Some(line)) = (parse_group(groups[0]), parse_group(groups[1])) else {
+            return self.error(cx, span, "cannot evaluate APT motion", expected);
+        };
+        if circle.0 != Word::Circle || circle.1.len() != 4 || line.1.len() != 6 || !line_word(groups[1].0) {
+            return self.error(cx, circle.2.to(line.2), "cannot evaluate APT motion", expected);
+        }
+        let Some(start) = self.position else {
+            return self.error(cx, span, "APT motion with no start point", "expected a GOTO or FROM before it");
+        };
+        let Some(dir) = self.indirv else {
+            return self.error(cx, span, "APT motion without a direction", "expected INDIRV/i,j,k before GOFWD");
+        };
+        let c = self.point(circle.1[0], circle.1[1], circle.1[2]);
+        let r = circle.1[3] * self.scale;
+        let p1 = self.point(line.1[0], line.1[1], line.1[2]);
+        let p2 = self.point(line.1[3], line.1[4], line.1[5]);
+        let radial = start - c;
+        let Some(normal) = Unit::try_new(radial.cross(&dir), 1e-9) else {
+            return self.error(
+                cx,
+                span,
+                "INDIRV is along the radius",
+                "expected a direction that leaves the circle tangentially",
+            );
+        };
+        if (radial.norm() - r).abs() > (r * 1e-3).max(0.002) {
+            self.warn(
+                cx,
+                circle.2,
+                format!("the start point is {:+.4} mm off the circle", radial.norm() - r),
+                "arc kept as written",
+                None,
+            );
+        }
+        // Intersections of the circle (centre c, radius r, plane ⟂ normal) with the line.
+        let d = p2 - p1;
+        let (u, v) = (radial.normalize(), normal.cross(&radial).normalize());
+        let mut best: Option<(f64, Point3<f64>)> = None;
+        for k in 0..720 {
+            // Coarse scan of the sweep, then refine by bisection on the distance to the line.
+            let a0 = f64::from(k) * std::f64::consts::TAU / 720.0;
+            let a1 = a0 + std::f64::consts::TAU / 720.0;
+            let f = |a: f64| {
+                let p = c + (u * a.cos() + v * a.sin()) * r;
+                let w = p - p1;
+                // Signed distance in the circle's plane, across the line.
+                w.cross(&d).dot(&normal)
+            };
+            let (f0, f1) = (f(a0), f(a1));
+            if f0.signum() != f1.signum() {
+                let (mut lo, mut hi) = (a0, a1);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if f(lo).signum() == f(mid).signum() { lo = mid } else { hi = mid }
+                }
+                let a = 0.5 * (lo + hi);
+                if a > 1e-9 {
+                    best = Some((a, c + (u * a.cos() + v * a.sin()) * r));
+                    break;
+                }
+            }
+        }
+        let Some((sweep, end)) = best else {
+            return self.error(
+                cx,
+                line.2,
+                "the circle does not meet the LINE",
+                "expected a LINE that crosses the CIRCLE",
+            );
+        };
+        let motion = self.motion();
+        self.position = Some(end);
+        let arc = Arc { start, center: c, normal, radius: r, end, sweep, axis: self.axis, motion };
+        self.indirv = Some(normal.cross(&(end - c)).normalize());
+        self.emit(span, ItemKind::Arc(Box::new(arc)));
+    }
+
+    // ----- NURBS ----------------------------------------------------------------------------
+
+    fn nurbs_start(&mut self, cx: &Ctx<'_>) {
+        let span = cx.rec.span;
+        match self.position {
+            Some(p) => self.nurbs = Some(PendingNurbs { knots: Vec::new(), control: vec![p], span }),
+            None => self.error(cx, span, "NURBS with no start point", "expected a GOTO before NURBS/"),
+        }
+    }
+
+    fn nurbs_part(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let form = if st.word == Word::Knot { "KNOT/k1,k2,…" } else { "CNTRL/x,y,z" };
+        let Some(v) = self.numbers(cx, st, form) else { return };
+        let span = cx.rec.span;
+        if self.nurbs.is_none() {
+            return self.error(cx, span, format!("{} outside a NURBS", cx.word_name), "expected NURBS/ first");
+        }
+        if st.word == Word::Cntrl {
+            if v.len() != 3 && v.len() != 4 {
+                return self.error(cx, span, format!("CNTRL has {} values", v.len()), "expected x,y,z");
+            }
+            let p = self.point(v[0], v[1], v[2]);
+            if let Some(n) = self.nurbs.as_mut() {
+                n.control.push(p);
+                n.span = n.span.to(span);
+            }
+        } else if let Some(n) = self.nurbs.as_mut() {
+            n.knots.extend_from_slice(&v);
+            n.span = n.span.to(span);
+        }
+    }
+
+    fn finish_nurbs(&mut self) {
+        let Some(n) = self.nurbs.take() else { return };
+        let ctx_word = String::from("NURBS");
+        let count = n.control.len();
+        // NX writes the knots after the leading `degree + 1` zeros and before the last `degree`
+        // ones: full = [0; p+1] ++ given ++ [end; p], so p = controls − given.
+        let given = n.knots.len();
+        let degree = count.checked_sub(given).filter(|p| (1..=9).contains(p));
+        let sorted = n.knots.windows(2).all(|w| w[0] <= w[1]) && n.knots.iter().all(|k| k.is_finite());
+        let (Some(degree), true, Some(&last)) = (degree, sorted, n.knots.last()) else {
+            self.diag(Diagnostic::new(Severity::Error, "cl::nurbs", n.span, format!("NURBS with {count} control points and {given} knots"), "expected the NX form: n control points (start point included) and n − degree knots, non-decreasing"
+                    .into()).with_word(Some(ctx_word)));
+            return;
+        };
+        let first = 0.0_f64.min(n.knots[0]);
+        let mut knots = vec![first; degree + 1];
+        knots.extend_from_slice(&n.knots);
+        knots.extend(std::iter::repeat_n(last, degree));
+        let end = n.control[count - 1];
+        let motion = self.motion();
+        self.position = Some(end);
+        let nurbs = Nurbs { degree, knots, control: n.control, axis: self.axis, motion };
+        self.emit(n.span, ItemKind::Nurbs(Box::new(nurbs)));
+    }
+
+    // ----- tools, spindle, coolant, compensation, cycles ---------------------------------------
+
+    fn tool(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let span = cx.rec.span;
+        let args = match &st.body {
+            Body::Args(a) => a.as_slice(),
+            _ => &[],
+        };
+        let mut number = None;
+        let mut adjust = None;
+        let mut k = 0;
+        while k < args.len() {
+            match args[k].value {
+                Value::Word(w) if w.eq_ignore_ascii_case("ADJUST") || w.eq_ignore_ascii_case("OSETNO") => {
+                    if let Some(Value::Num(v)) = args.get(k + 1).map(|a| a.value) {
+                        adjust = whole(v);
+                        k += 1;
+                    }
+                }
+                Value::Num(v) if number.is_none() => number = Some((v, arg_span(cx, &args[k]))),
+                _ => {}
+            }
+            k += 1;
+        }
+        let Some((n, nspan)) = number else {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                format!("{} without a tool number", cx.word_name),
+                "expected a tool number",
+            );
+        };
+        let Some(number) = whole(n) else {
+            return self.error(cx, nspan, "tool number is not a whole number", "expected a tool number ≥ 0");
+        };
+        match st.word {
+            Word::Select | Word::Toolno => self.emit(span, ItemKind::ToolSelect(number)),
+            _ => {
+                let name = self.tool_name.take();
+                self.emit(span, ItemKind::ToolChange(ToolChange { number, adjust, name }));
+            }
+        }
+    }
+
+    fn tool_shape(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let args = match &st.body {
+            Body::Args(a) => a.as_slice(),
+            _ => &[],
+        };
+        let kind =
+            args.first().and_then(|a| if let Value::Word(w) = a.value { Some(w.to_ascii_uppercase()) } else { None });
+        let nums: Vec<f64> =
+            args.iter().filter_map(|a| if let Value::Num(v) = a.value { Some(v * self.scale) } else { None }).collect();
+        let Some(&diameter) = nums.first() else {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                format!("{} without a diameter", cx.word_name),
+                "expected the tool diameter first",
+            );
+        };
+        if diameter < 0.0 {
+            return self.error(cx, body_span(cx, st), "negative tool diameter", "expected a diameter ≥ 0");
+        }
+        let shape = match (st.word, kind.as_deref()) {
+            // TLDATA/MILL,d,r,length,taper,tip
+            (Word::Tldata, Some("MILL")) => {
+                ToolShape { diameter, corner_radius: nums.get(1).copied().unwrap_or(0.0), length: nums.get(2).copied() }
+            }
+            // TLDATA/DRILL,d,point angle,length,…
+            (Word::Tldata, _) => ToolShape { diameter, corner_radius: 0.0, length: nums.get(2).copied() },
+            // CUTTER/d,r,e,f,a,b,h
+            _ => {
+                ToolShape { diameter, corner_radius: nums.get(1).copied().unwrap_or(0.0), length: nums.get(6).copied() }
+            }
+        };
+        self.emit(cx.rec.span, ItemKind::ToolShape(shape));
+    }
+
+    fn spindle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let args = match &st.body {
+            Body::Args(a) => a.as_slice(),
+            _ => &[],
+        };
+        let mut speed = None;
+        let mut unit = SpindleUnit::Rpm;
+        let mut clockwise = true;
+        let mut off = false;
+        for a in args {
+            match a.value {
+                Value::Num(v) => speed = Some(v),
+                Value::Word(w) => match w.to_ascii_uppercase().as_str() {
+                    "RPM" => unit = SpindleUnit::Rpm,
+                    "SFM" | "SMM" => unit = SpindleUnit::SurfaceSpeed,
+                    "CLW" => clockwise = true,
+                    "CCLW" => clockwise = false,
+                    "OFF" | "STOP" => off = true,
+                    "ON" | "MAXRPM" | "RANGE" => {}
+                    _ => self.warn(cx, arg_span(cx, a), format!("unknown spindle word `{w}`"), "ignored", None),
+                },
+                _ => {}
+            }
+        }
+        let span = cx.rec.span;
+        if off {
+            return self.emit(span, ItemKind::Spindle(Spindle::Off));
+        }
+        let Some((speed, unit)) = speed.map(|s| (s, unit)).or(self.last_spindle) else {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                "SPINDL without a speed",
+                "expected SPINDL/RPM,n[,CLW|CCLW] or SPINDL/OFF",
+            );
+        };
+        if speed < 0.0 {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                "negative spindle speed",
+                "expected a speed ≥ 0 (direction is CLW or CCLW)",
+            );
+        }
+        self.last_spindle = Some((speed, unit));
+        self.emit(span, ItemKind::Spindle(Spindle::On { speed, unit, clockwise }));
+    }
+
+    fn coolant(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let span = cx.rec.span;
+        let Some(w) = first_word(st) else {
+            self.warn(cx, span, "COOLNT without a minor word", "read as COOLNT/ON", None);
+            return self.emit(span, ItemKind::Coolant(Coolant::On));
+        };
+        let c = match w.to_ascii_uppercase().as_str() {
+            "ON" => Coolant::On,
+            "FLOOD" => Coolant::Flood,
+            "MIST" => Coolant::Mist,
+            "THRU" | "THRUST" | "TAP" => Coolant::Through,
+            "AIR" => Coolant::Air,
+            "OFF" => Coolant::Off,
+            other => {
+                let label = format!("`{other}` is not a coolant word; read as ON");
+                self.warn(
+                    cx,
+                    body_span(cx, st),
+                    "unknown coolant word",
+                    label,
+                    Some("known: ON, FLOOD, MIST, THRU, AIR, OFF".into()),
+                );
+                Coolant::On
+            }
+        };
+        self.emit(span, ItemKind::Coolant(c));
+    }
+
+    fn cutcom(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let mut state = None;
+        if let Body::Args(a) = &st.body {
+            for a in a {
+                if let Value::Word(w) = a.value {
+                    match w.to_ascii_uppercase().as_str() {
+                        "LEFT" => state = Some(CutterComp::Left),
+                        "RIGHT" => state = Some(CutterComp::Right),
+                        "OFF" => state = Some(CutterComp::Off),
+                        "ON" => state = state.or(Some(CutterComp::On)),
+                        _ => {}
+                    }
+                }
+            }
+        }
+        match state {
+            Some(s) => self.emit(cx.rec.span, ItemKind::CutterComp(s)),
+            None => {
+                self.error(cx, body_span(cx, st), "CUTCOM without a side", "expected CUTCOM/LEFT, RIGHT, ON or OFF")
+            }
+        }
+    }
+
+    fn cycle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let span = cx.rec.span;
+        let args = match &st.body {
+            Body::Args(a) => a.as_slice(),
+            _ => &[],
+        };
+        let Some(Value::Word(kind)) = args.first().map(|a| a.value) else {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                "CYCLE without a kind",
+                "expected CYCLE/DRILL, DEEP, TAP, BORE, … or CYCLE/OFF",
+            );
+        };
+        let kind = kind.to_ascii_uppercase();
+        if kind == "OFF" {
+            self.in_cycle = false;
+            return self.emit(span, ItemKind::CycleOff);
+        }
+        let mut params = Vec::new();
+        let mut key: Option<String> = None;
+        for a in &args[1..] {
+            match a.value {
+                Value::Word(w) => {
+                    if let Some(k) = key.take() {
+                        params.push((Some(k), f64::NAN));
+                    }
+                    key = Some(w.to_ascii_uppercase());
+                }
+                Value::Num(v) => params.push((key.take(), v)),
+                _ => {}
+            }
+        }
+        if let Some(k) = key {
+            params.push((Some(k), f64::NAN));
+        }
+        // INIT and ON announce a cycle whose parameters follow in the next CYCLE record.
+        self.in_cycle = kind != "INIT" && kind != "ON" || self.in_cycle;
+        self.emit(span, ItemKind::CycleOn(Box::new(Cycle { kind, params, length_scale: self.scale })));
+    }
+
+    fn delay(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let args = match &st.body {
+            Body::Args(a) => a.as_slice(),
+            _ => &[],
+        };
+        let rev = args.iter().any(|a| matches!(a.value, Value::Word(w) if w.eq_ignore_ascii_case("REV")));
+        let value = args.iter().find_map(|a| if let Value::Num(v) = a.value { Some(v) } else { None });
+        match value {
+            Some(v) if v >= 0.0 => {
+                let d = if rev { Delay::Revolutions(v) } else { Delay::Seconds(v) };
+                self.emit(cx.rec.span, ItemKind::Delay(d));
+            }
+            _ => self.error(cx, body_span(cx, st), "DELAY without a duration", "expected DELAY/seconds or DELAY/REV,n"),
+        }
+    }
+
+    fn text(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let text = text_of(st).unwrap_or_default();
+        let kind = match st.word {
+            Word::Pprint => TextKind::Pprint,
+            Word::Insert => TextKind::Insert,
+            Word::Tprint => TextKind::Tprint,
+            Word::Partno => TextKind::Partno,
+            _ => TextKind::Remark,
+        };
+        if kind == TextKind::Partno && self.info.part_name.is_none() {
+            self.info.part_name = Some(text.trim_matches('\'').to_string());
+        }
+        if kind == TextKind::Pprint && text.to_ascii_uppercase().starts_with("APTCL-SPEC,MAKINO") {
+            self.cam_votes.push(CamSystem::MakinoFfcam);
+        }
+        if kind == TextKind::Remark {
+            self.note_apt_source(cx.rec.span);
+        }
+        self.emit(cx.rec.span, ItemKind::Text(kind, text.to_string()));
+    }
+
+    // ----- frames and units -----------------------------------------------------------------
+
+    fn vector_args(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, form: &str) -> Option<Vector3<f64>> {
+        let v = self.numbers(cx, st, form)?;
+        if v.len() != 3 {
+            let span = body_span(cx, st);
+            self.error(cx, span, format!("{} has {} values", cx.word_name, v.len()), format!("expected {form}"));
+            return None;
+        }
+        let d = Vector3::new(v[0], v[1], v[2]);
+        if d.norm() < 1e-9 {
+            let span = body_span(cx, st);
+            self.error(cx, span, "zero direction vector", "expected a unit vector (i,j,k)");
+            return None;
+        }
+        Some(d.normalize())
+    }
+
+    fn tlaxis(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        if Self::is_symbolic(st) {
+            return self.apt_source(cx, st);
+        }
+        let Some(v) = self.numbers(cx, st, "TLAXIS/i,j,k") else { return };
+        let span = body_span(cx, st);
+        if v.len() != 3 {
+            return self.error(cx, span, format!("TLAXIS has {} values", v.len()), "expected TLAXIS/i,j,k");
+        }
+        if let Some(axis) = self.direction(cx, span, v[0], v[1], v[2]) {
+            self.axis = axis;
+        }
+    }
+
+    fn msys(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let Some(v) = self.numbers(cx, st, "MSYS/x,y,z,xi,xj,xk,yi,yj,yk") else { return };
+        let span = body_span(cx, st);
+        if v.len() != 9 {
+            return self.error(
+                cx,
+                span,
+                format!("MSYS has {} values", v.len()),
+                "expected MSYS/origin x,y,z, X axis i,j,k, Y axis i,j,k",
+            );
+        }
+        let x = Vector3::new(v[3], v[4], v[5]);
+        let y = Vector3::new(v[6], v[7], v[8]);
+        let (Some(xu), true) = (Unit::try_new(x, 1e-9), y.norm() > 1e-9) else {
+            return self.error(cx, span, "MSYS axis of zero length", "expected unit X and Y axes");
+        };
+        let Some(z) = Unit::try_new(xu.cross(&y), 1e-9) else {
+            return self.error(cx, span, "MSYS X and Y axes are parallel", "expected perpendicular X and Y axes");
+        };
+        if xu.dot(&y.normalize()).abs() > UNIT_TOLERANCE
+            || (x.norm() - 1.0).abs() > UNIT_TOLERANCE
+            || (y.norm() - 1.0).abs() > UNIT_TOLERANCE
+        {
+            self.warn(
+                cx,
+                span,
+                "MSYS axes are not orthonormal",
+                "orthonormalised (X kept, Y made perpendicular)",
+                None,
+            );
+        }
+        let yu = z.cross(&xu);
+        let rot = nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_columns(&[
+            xu.into_inner(),
+            yu,
+            z.into_inner(),
+        ]));
+        let origin = Vector3::new(v[0], v[1], v[2]) * self.scale;
+        self.msys = Isometry3::from_parts(Translation3::from(origin), UnitQuaternion::from_rotation_matrix(&rot));
+        self.update_frame();
+        let change = FrameChange { source: FrameSource::Msys, to_part: self.to_part };
+        self.emit(cx.rec.span, ItemKind::Frame(Box::new(change)));
+    }
+
+    fn csys(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let Some(v) = self.numbers(cx, st, "CSYS/ 3×4 matrix, row by row") else { return };
+        let Ok(m) = <[f64; 12]>::try_from(v.as_slice()) else {
+            let span = body_span(cx, st);
+            return self.error(
+                cx,
+                span,
+                format!("CSYS has {} values", v.len()),
+                "expected 12 values: a 3×4 matrix, row by row",
+            );
+        };
+        self.cam_votes.push(CamSystem::SolidworksCam);
+        let change = FrameChange { source: FrameSource::Csys(m), to_part: self.to_part };
+        self.emit(cx.rec.span, ItemKind::Frame(Box::new(change)));
+    }
+
+    fn rotabl(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let args = match &st.body {
+            Body::Args(a) => a.as_slice(),
+            _ => &[],
+        };
+        let mut angle = None;
+        let mut axis = None;
+        let mut sign = 1.0;
+        let mut absolute = false;
+        let mut empty = None;
+        for a in args {
+            match a.value {
+                Value::Num(v) if angle.is_none() => angle = Some(v),
+                Value::Word(w) => match w.to_ascii_uppercase().as_str() {
+                    "AAXIS" => axis = Some('A'),
+                    "BAXIS" => axis = Some('B'),
+                    "CAXIS" => axis = Some('C'),
+                    "CLW" => sign = -1.0,
+                    "CCLW" => sign = 1.0,
+                    "ABSOL" => absolute = true,
+                    "INCR" | "TABLE" | "HEAD" => {}
+                    _ => self.warn(cx, arg_span(cx, a), format!("unknown ROTABL word `{w}`"), "ignored", None),
+                },
+                Value::Empty => empty = Some(arg_span(cx, a)),
+                _ => {}
+            }
+        }
+        let Some(angle) = angle else {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                "ROTABL without an angle",
+                "expected ROTABL/angle,AAXIS|BAXIS|CAXIS[,CLW|CCLW]",
+            );
+        };
+        if let Some(e) = empty {
+            self.warn(cx, e, "empty ROTABL argument", "ignored", None);
+        }
+        if angle == 0.0 {
+            return self.passive(cx, st);
+        }
+        let Some(letter) = axis else {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                "ROTABL turns about no named axis",
+                "expected AAXIS, BAXIS or CAXIS",
+            );
+        };
+        if absolute {
+            return self.error(
+                cx,
+                body_span(cx, st),
+                "absolute ROTABL is not supported",
+                "expected an incremental ROTABL (the CAMWorks form)",
+            );
+        }
+        // CAMWorks writes radians; ISO 4343 degrees.
+        let radians = if self.camworks_vocabulary { angle } else { angle.to_radians() };
+        let axis_vec = match letter {
+            'A' => Vector3::x_axis(),
+            'B' => Vector3::y_axis(),
+            _ => Vector3::z_axis(),
+        };
+        if !self.camworks_vocabulary {
+            self.warn(
+                cx,
+                body_span(cx, st),
+                "ROTABL angle read in degrees",
+                "degrees (ISO 4343); CAMWorks files are read in radians",
+                None,
+            );
+        }
+        // Rotations of the table about fixed machine axes compose on the left.
+        self.table = UnitQuaternion::from_axis_angle(&axis_vec, sign * radians) * self.table;
+        self.update_frame();
+        let change = FrameChange { source: FrameSource::Rotabl(letter, sign * radians), to_part: self.to_part };
+        self.emit(cx.rec.span, ItemKind::Frame(Box::new(change)));
+    }
+
+    fn units(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let unit = match first_word(st).map(|w| w.to_ascii_uppercase()) {
+            Some(w) if matches!(w.as_str(), "MM" | "MILLIMETERS" | "MILLIMETRES" | "METRIC") => LengthUnit::Mm,
+            Some(w) if matches!(w.as_str(), "INCHES" | "INCH" | "IN") => LengthUnit::Inch,
+            _ => return self.error(cx, body_span(cx, st), "unknown unit", "expected UNITS/MM or UNITS/INCHES"),
+        };
+        if unit != self.unit {
+            let (old, new) = (self.unit.name(), unit.name());
+            self.warn(
+                cx,
+                cx.rec.span,
+                format!("units change from {old} to {new}"),
+                format!("values from here on read in {new}"),
+                None,
+            );
+            self.unit = unit;
+            self.scale = unit.to_mm();
+        }
+    }
+
+    // ----- records carried through ----------------------------------------------------------
+
+    fn passive(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        self.carry(cx, st, false);
+    }
+
+    fn carry(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, unknown: bool) {
+        let word = cx.word_name.clone();
+        match word.as_str() {
+            "CSI_SET_FLUTE_LENGTH" | "TRNTYP" => self.cam_votes.push(CamSystem::SolidworksCam),
+            "MOVE_ATTRIB" | "BOX" => {
+                self.camworks_vocabulary = true;
+                self.cam_votes.push(CamSystem::CamWorks);
+            }
+            "PAINT" | "TLDATA" => self.cam_votes.push(CamSystem::SiemensNx),
+            "MODE" => self.cam_votes.push(CamSystem::Fusion),
+            _ => {}
+        }
+        let span = cx.rec.span;
+        let args = match st.body {
+            Body::None => String::new(),
+            _ => cx.rec.text.split_once('/').map_or(String::new(), |(_, a)| a.trim().to_string()),
+        };
+        let entry = self.info.uninterpreted.entry(word.clone()).or_insert(WordUse { count: 0, first: span, unknown });
+        entry.count += 1;
+        self.emit(span, ItemKind::Record(Record { word, args }));
+    }
+
+    fn note_apt_source(&mut self, span: Span) {
+        self.apt_source_statements += 1;
+        self.first_apt_source.get_or_insert(span);
+    }
+
+    /// APT source-language statements (`pl1=plane/…`, `goto/setpt2`): carried, counted, and
+    /// reported once for the file.
+    fn apt_source(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        self.note_apt_source(cx.rec.span);
+        self.carry(cx, st, false);
+    }
+
+    fn vote_comment(&mut self, text: &str) {
+        if text.contains("Pro/CLfile") {
+            self.cam_votes.insert(0, CamSystem::Creo);
+        } else if text.contains("CATIA") {
+            self.cam_votes.insert(0, CamSystem::CatiaV5);
+        } else if text.contains("postpro-examples") {
+            self.cam_votes.insert(0, CamSystem::PostproExamples);
+        }
+    }
+
+    fn finish(mut self) -> (ProgramInfo, Vec<Diagnostic>) {
+        self.finish_nurbs();
+        if let Some(arc) = self.arc.take() {
+            self.diag(
+                Diagnostic::new(
+                    Severity::Error,
+                    "cl::statement",
+                    arc.span,
+                    format!("{} is not followed by its end point", arc.word),
+                    "expected a GOTO to the arc's end point next".into(),
+                )
+                .with_word(Some(arc.word.to_string())),
+            );
+        }
+        if let Some(first) = self.first_apt_source {
+            self.info.apt_source = true;
+            let n = self.apt_source_statements;
+            self.diag(
+                Diagnostic::new(
+                    Severity::Warning,
+                    "cl::apt-source",
+                    first,
+                    format!(
+                        "this looks like an APT part program (source language), not CL data: {n} symbolic statement(s)"
+                    ),
+                    "geometry definitions and symbolic motion are carried as records, not evaluated".into(),
+                )
+                .with_help("run the part program through an APT processor and read its CL output"),
+            );
+        }
+        for (word, usage) in &self.info.uninterpreted {
+            if usage.unknown {
+                let n = usage.count;
+                self.diags.push(Diagnostic {
+                    severity: Severity::Warning,
+                    code: "cl::unknown-word",
+                    message: format!("unknown word `{word}` ({n} record{})", if n == 1 { "" } else { "s" }),
+                    span: usage.first,
+                    label: "carried through unchanged".into(),
+                    help: Some("the emitter writes unknown records as comments".into()),
+                    word: Some(word.clone()),
+                });
+            }
+        }
+        if self.suppressed > 0 {
+            let n = self.suppressed;
+            self.diags.push(Diagnostic {
+                severity: if self.diags.iter().any(Diagnostic::is_error) { Severity::Error } else { Severity::Warning },
+                code: "cl::too-many",
+                message: format!("{n} more diagnostics not kept"),
+                span: Span::new(self.src.len(), self.src.len()),
+                label: "limit reached".into(),
+                help: None,
+                word: None,
+            });
+        }
+        self.info.cam_system = self.cam_votes.first().copied().map(|first| {
+            // An explicit header (inserted at the front) wins; otherwise the most frequent vote.
+            let mut best = (first, 0);
+            for c in &self.cam_votes {
+                let n = self.cam_votes.iter().filter(|d| *d == c).count();
+                if n > best.1 {
+                    best = (*c, n);
+                }
+            }
+            if matches!(
+                first,
+                CamSystem::Creo | CamSystem::CatiaV5 | CamSystem::PostproExamples | CamSystem::MakinoFfcam
+            ) {
+                first
+            } else {
+                best.0
+            }
+        });
+        self.diags.sort_by_key(|d| d.span.start);
+        (self.info, self.diags)
+    }
+}
+
+/// The statement being processed.
+struct Ctx<'r> {
+    rec: &'r RawRecord<'r>,
+    word_name: String,
+}
+
+fn is_motion(w: Word) -> bool {
+    matches!(
+        w,
+        Word::Goto
+            | Word::From
+            | Word::Godlta
+            | Word::Circle
+            | Word::Movarc
+            | Word::GoMotion
+            | Word::Nurbs
+            | Word::End
+            | Word::Fini
+    )
+}
+
+fn arg_span(cx: &Ctx<'_>, a: &Arg<'_>) -> Span {
+    cx.rec.source_span(a.start as usize, (a.end as usize).max(a.start as usize + 1).min(cx.rec.text.len().max(1)))
+}
+
+fn body_span(cx: &Ctx<'_>, st: &Statement<'_>) -> Span {
+    match &st.body {
+        Body::Args(a) if !a.is_empty() => {
+            let (s, e) = (a[0].start as usize, a[a.len() - 1].end as usize);
+            cx.rec.source_span(s, e.max(s + 1).min(cx.rec.text.len()))
+        }
+        _ => cx.rec.span,
+    }
+}
+
+fn first_word<'a>(st: &Statement<'a>) -> Option<&'a str> {
+    match &st.body {
+        Body::Args(a) => a.iter().find_map(|a| if let Value::Word(w) = a.value { Some(w) } else { None }),
+        _ => None,
+    }
+}
+
+fn text_of<'a>(st: &Statement<'a>) -> Option<&'a str> {
+    match st.body {
+        Body::Text(t) => Some(t),
+        _ => None,
+    }
+}
+
+fn whole(v: f64) -> Option<u32> {
+    (v >= 0.0 && v.fract() == 0.0 && v <= f64::from(u32::MAX)).then_some(v as u32)
+}
+
+fn line_word(group: &str) -> bool {
+    group.trim_start().get(..4).is_some_and(|w| w.eq_ignore_ascii_case("LINE"))
+}
+
+/// `TOOL PATH/operation,TOOL,tool name`.
+fn tool_path_names(st: &Statement<'_>) -> (String, Option<String>) {
+    let Body::Args(a) = &st.body else { return (String::new(), None) };
+    let text = |a: &Arg<'_>| match a.value {
+        Value::Word(w) | Value::Quoted(w) => w.to_string(),
+        Value::Num(v) => v.to_string(),
+        _ => String::new(),
+    };
+    let op = a.first().map(text).unwrap_or_default();
+    let tool = a
+        .iter()
+        .position(|x| matches!(x.value, Value::Word(w) if w.eq_ignore_ascii_case("TOOL")))
+        .and_then(|k| a.get(k + 1))
+        .map(text);
+    (op, tool)
+}
+
+/// Finds the file's length unit before reading: the first `UNITS`/`UNIT` statement, else the
+/// unit word of the first `FEDRAT` that has one, else millimetres. Only lines that start with
+/// `U` or `F` are parsed, so this costs little more than a scan for line ends.
+fn prescan_units(src: &str) -> UnitsInfo {
+    let bytes = src.as_bytes();
+    let mut feed_hint = None;
+    let mut pos = 0;
+    while pos < bytes.len() {
+        let line_end = memchr::memchr(b'\n', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
+        let first = bytes[pos..line_end].iter().position(|&c| c != b' ' && c != b'\t').map(|k| pos + k);
+        if let Some(f) = first
+            && matches!(bytes[f], b'U' | b'u' | b'F' | b'f')
+            && let Some(RawUnit::Statement(rec)) = Splitter::at(src, pos).next()
+            && let Ok(st) = syntax::statement(&rec.text)
+        {
+            let words = || match &st.body {
+                Body::Args(a) => a
+                    .iter()
+                    .filter_map(|a| if let Value::Word(w) = a.value { Some(w.to_ascii_uppercase()) } else { None })
+                    .collect(),
+                _ => Vec::new(),
+            };
+            match st.word {
+                Word::Units => {
+                    let unit =
+                        if words().iter().any(|w| w.starts_with("IN")) { LengthUnit::Inch } else { LengthUnit::Mm };
+                    return UnitsInfo { unit, origin: UnitsOrigin::Declared(rec.span) };
+                }
+                Word::Fedrat if feed_hint.is_none() => {
+                    let w = words();
+                    if w.iter().any(|w| w == "IPM" || w == "IPR") {
+                        feed_hint = Some(UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::FeedWord(rec.span) });
+                    } else if w.iter().any(|w| w == "MMPM" || w == "MMPR") {
+                        feed_hint = Some(UnitsInfo { unit: LengthUnit::Mm, origin: UnitsOrigin::FeedWord(rec.span) });
+                    }
+                }
+                _ => {}
+            }
+        }
+        pos = line_end + 1;
+    }
+    feed_hint.unwrap_or_default()
+}

@@ -1,0 +1,32 @@
+//! `postpro`: the command line.
+//!
+//! Exit codes: 0 when the input reads, 1 for input errors (a CL file that does not read, a
+//! missing file), 2 for usage errors (clap's own code).
+
+mod check;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Post-processor for multi-axis CNC milling: APT/CL in, NC programs out.
+#[derive(Debug, Parser)]
+#[command(name = "postpro", version, about, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Read a CL file and print a summary: CAM system, units, moves, axes, tools, feeds,
+    /// bounding box, path length, arcs, and warnings by word.
+    Check(check::CheckArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Check(args) => check::run(&args),
+    }
+}
