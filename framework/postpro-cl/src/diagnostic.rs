@@ -115,7 +115,7 @@ impl miette::Diagnostic for Diagnostic {
 
 /// The shared source text, for miette.
 #[derive(Debug)]
-struct SharedText(Arc<str>);
+struct SharedText(Arc<String>);
 
 impl SourceCode for SharedText {
     fn read_span<'a>(
@@ -124,7 +124,7 @@ impl SourceCode for SharedText {
         before: usize,
         after: usize,
     ) -> Result<Box<dyn miette::SpanContents<'a> + 'a>, miette::MietteError> {
-        self.0.as_ref().read_span(span, before, after)
+        self.0.as_str().read_span(span, before, after)
     }
 }
 

@@ -98,6 +98,18 @@ pub enum CamSystem {
 }
 
 impl CamSystem {
+    /// Every CAM system, in declaration order (`CamSystem as usize` indexes it).
+    pub const ALL: [CamSystem; 8] = [
+        CamSystem::SiemensNx,
+        CamSystem::CatiaV5,
+        CamSystem::Creo,
+        CamSystem::SolidworksCam,
+        CamSystem::CamWorks,
+        CamSystem::MakinoFfcam,
+        CamSystem::Fusion,
+        CamSystem::PostproExamples,
+    ];
+
     /// Display name.
     pub fn name(self) -> &'static str {
         match self {

@@ -95,7 +95,7 @@ struct Builder<'s, S> {
     tool_name: Option<String>,
     last_spindle: Option<(f64, SpindleUnit)>,
     camworks_vocabulary: bool,
-    cam_votes: Vec<CamSystem>,
+    cam: CamEvidence,
     fini_at: Option<Span>,
     warned_after_fini: bool,
     feed_unit_conflicts: usize,
@@ -129,7 +129,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             tool_name: None,
             last_spindle: None,
             camworks_vocabulary: false,
-            cam_votes: Vec::new(),
+            cam: CamEvidence::default(),
             fini_at: None,
             warned_after_fini: false,
             feed_unit_conflicts: 0,
@@ -153,7 +153,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn error(&mut self, st: &Ctx<'_>, span: Span, message: impl Into<String>, expected: impl Into<String>) {
-        let word = Some(st.word_name.clone());
+        let word = Some(st.word_name());
         self.diag(
             Diagnostic::new(Severity::Error, "cl::statement", span, message.into(), expected.into()).with_word(word),
         );
@@ -167,7 +167,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         label: impl Into<String>,
         help: Option<String>,
     ) {
-        let word = Some(st.word_name.clone());
+        let word = Some(st.word_name());
         let mut d =
             Diagnostic::new(Severity::Warning, "cl::statement", span, message.into(), label.into()).with_word(word);
         d.help = help;
@@ -189,7 +189,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             }
             RawUnit::Listing => {
                 self.info.listing_lines += 1;
-                self.cam_votes.push(CamSystem::SiemensNx);
+                self.cam.vote(CamSystem::SiemensNx);
             }
         }
     }
@@ -234,7 +234,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 "expected a continuation line after `$`".into(),
             ));
         }
-        let parsed = syntax::statement(&rec.text);
+        let mut args = syntax::Args::new();
+        let parsed = syntax::statement(&rec.text, &mut args);
         let stmt = match parsed {
             Ok(s) => s,
             Err(e) => {
@@ -263,12 +264,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 return;
             }
         };
-        let word_name = match stmt.word {
-            Word::Goto => String::from("GOTO"),
-            Word::AptSource if stmt.major.contains('=') => String::from("APT ASSIGNMENT"),
-            _ => canonical(stmt.major),
-        };
-        let ctx = Ctx { rec, word_name };
+        let ctx = Ctx { rec, major: stmt.major, word: stmt.word };
         if rec.open_quote {
             let end = rec.span.end();
             self.warn(&ctx, Span::new(end, end), "unterminated quoted text", "expected a closing `'`", None);
@@ -323,7 +319,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 }
             }
             Word::GoMotion => self.go_motion(cx, st),
-            Word::Loadtl | Word::Load | Word::Select | Word::Toolno => self.tool(cx, st),
+            Word::Loadtl | Word::Load | Word::Select | Word::Toolno | Word::Turret => self.tool(cx, st),
             Word::Tldata | Word::Cutter => self.tool_shape(cx, st),
             Word::Spindl => self.spindle(cx, st),
             Word::Coolnt => self.coolant(cx, st),
@@ -338,12 +334,12 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             Word::Pprint | Word::Insert | Word::Tprint | Word::Partno | Word::Remark => self.text(cx, st),
             Word::OpFeatStart => {
                 self.camworks_vocabulary = true;
-                self.cam_votes.push(CamSystem::CamWorks);
+                self.cam.vote(CamSystem::CamWorks);
                 self.emit(span, ItemKind::OperationStart(text_of(st).unwrap_or_default().to_string()));
             }
             Word::OpFeatEnd => self.emit(span, ItemKind::OperationEnd),
             Word::ToolPath => {
-                self.cam_votes.push(CamSystem::SiemensNx);
+                self.cam.vote(CamSystem::SiemensNx);
                 let (op, tool) = tool_path_names(st);
                 self.tool_name = tool;
                 self.emit(span, ItemKind::OperationStart(op));
@@ -370,10 +366,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     /// Numbers of a statement; `None` (after a diagnostic) when an argument is not a number.
     /// Trailing empty arguments are dropped with a warning.
     fn numbers(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, form: &str) -> Option<smallvec::SmallVec<[f64; 8]>> {
-        let args = match &st.body {
-            Body::Args(a) => a.as_slice(),
-            _ => &[],
-        };
+        let args = st.args();
         let mut n = args.len();
         while n > 0 && args[n - 1].value == Value::Empty {
             n -= 1;
@@ -398,7 +391,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                     self.error(
                         cx,
                         arg_span(cx, a),
-                        format!("{} expects numbers", cx.word_name),
+                        format!("{} expects numbers", cx.word_name()),
                         format!("expected a number ({form})"),
                     );
                     return None;
@@ -544,7 +537,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn fedrat(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let Body::Args(args) = &st.body else {
+        let Body::Args(args) = st.body else {
             let span = cx.rec.span;
             return self.error(cx, span, "FEDRAT without a value", "expected FEDRAT/f[,MMPM|IPM|MMPR|IPR]");
         };
@@ -618,7 +611,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     // ----- arcs -----------------------------------------------------------------------------
 
     fn circle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let Body::Args(args) = &st.body else {
+        let Body::Args(args) = st.body else {
             let span = cx.rec.span;
             return self.error(cx, span, "CIRCLE without arguments", "expected CIRCLE/cx,cy,cz,i,j,k[,r,…]");
         };
@@ -687,7 +680,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn movarc(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let Body::Args(args) = &st.body else {
+        let Body::Args(args) = st.body else {
             let span = cx.rec.span;
             return self.error(cx, span, "MOVARC without arguments", "expected MOVARC/cx,cy,cz,i,j,k,r,ANGLE,deg");
         };
@@ -715,6 +708,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         if angle < 0.0 {
             normal = -normal;
         }
+        self.cam.vote(CamSystem::Fusion);
         let sweep = angle.abs().to_radians();
         let center = self.point(nums[0], nums[1], nums[2]);
         let radius = Some(nums[6] * self.scale);
@@ -803,7 +797,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     fn go_motion(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
         let span = cx.rec.span;
         let expected = "expected TLON,GOFWD/(CIRCLE/cx,cy,cz,r),ON,(LINE/x1,y1,z1,x2,y2,z2)";
-        let Body::Args(args) = &st.body else { return self.apt_source(cx, st) };
+        let Body::Args(args) = st.body else { return self.apt_source(cx, st) };
         let groups: smallvec::SmallVec<[(&str, &Arg<'_>); 2]> =
             args.iter().filter_map(|a| if let Value::Group(g) = a.value { Some((g, a)) } else { None }).collect();
         let modifier_on = args.iter().any(|a| matches!(a.value, Value::Word(w) if w.eq_ignore_ascii_case("ON")));
@@ -811,7 +805,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             return self.apt_source(cx, st);
         }
         let parse_group = |(g, a): (&str, &Arg<'_>)| -> Option<(Word, Vec<f64>, Span)> {
-            let s = syntax::group_statement(g).ok()?;
+            let mut buf = syntax::Args::new();
+            let s = syntax::statement(g, &mut buf).ok()?;
             let nums = match &s.body {
                 Body::Args(x) => x
                     .iter()
@@ -913,7 +908,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         let Some(v) = self.numbers(cx, st, form) else { return };
         let span = cx.rec.span;
         if self.nurbs.is_none() {
-            return self.error(cx, span, format!("{} outside a NURBS", cx.word_name), "expected NURBS/ first");
+            return self.error(cx, span, format!("{} outside a NURBS", cx.word_name()), "expected NURBS/ first");
         }
         if st.word == Word::Cntrl {
             if v.len() != 3 && v.len() != 4 {
@@ -959,10 +954,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     fn tool(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
         let span = cx.rec.span;
-        let args = match &st.body {
-            Body::Args(a) => a.as_slice(),
-            _ => &[],
-        };
+        let args = st.args();
         let mut number = None;
         let mut adjust = None;
         let mut k = 0;
@@ -983,7 +975,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             return self.error(
                 cx,
                 body_span(cx, st),
-                format!("{} without a tool number", cx.word_name),
+                format!("{} without a tool number", cx.word_name()),
                 "expected a tool number",
             );
         };
@@ -1000,10 +992,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn tool_shape(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let args = match &st.body {
-            Body::Args(a) => a.as_slice(),
-            _ => &[],
-        };
+        let args = st.args();
         let kind =
             args.first().and_then(|a| if let Value::Word(w) = a.value { Some(w.to_ascii_uppercase()) } else { None });
         let nums: Vec<f64> =
@@ -1012,7 +1001,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             return self.error(
                 cx,
                 body_span(cx, st),
-                format!("{} without a diameter", cx.word_name),
+                format!("{} without a diameter", cx.word_name()),
                 "expected the tool diameter first",
             );
         };
@@ -1035,10 +1024,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn spindle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let args = match &st.body {
-            Body::Args(a) => a.as_slice(),
-            _ => &[],
-        };
+        let args = st.args();
         let mut speed = None;
         let mut unit = SpindleUnit::Rpm;
         let mut clockwise = true;
@@ -1112,7 +1098,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     fn cutcom(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
         let mut state = None;
-        if let Body::Args(a) = &st.body {
+        if let Body::Args(a) = st.body {
             for a in a {
                 if let Value::Word(w) = a.value {
                     match w.to_ascii_uppercase().as_str() {
@@ -1135,10 +1121,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     fn cycle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
         let span = cx.rec.span;
-        let args = match &st.body {
-            Body::Args(a) => a.as_slice(),
-            _ => &[],
-        };
+        let args = st.args();
         let Some(Value::Word(kind)) = args.first().map(|a| a.value) else {
             return self.error(
                 cx,
@@ -1175,10 +1158,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn delay(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let args = match &st.body {
-            Body::Args(a) => a.as_slice(),
-            _ => &[],
-        };
+        let args = st.args();
         let rev = args.iter().any(|a| matches!(a.value, Value::Word(w) if w.eq_ignore_ascii_case("REV")));
         let value = args.iter().find_map(|a| if let Value::Num(v) = a.value { Some(v) } else { None });
         match value {
@@ -1203,7 +1183,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             self.info.part_name = Some(text.trim_matches('\'').to_string());
         }
         if kind == TextKind::Pprint && text.to_ascii_uppercase().starts_with("APTCL-SPEC,MAKINO") {
-            self.cam_votes.push(CamSystem::MakinoFfcam);
+            self.cam.header(CamSystem::MakinoFfcam);
         }
         if kind == TextKind::Remark {
             self.note_apt_source(cx.rec.span);
@@ -1217,7 +1197,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         let v = self.numbers(cx, st, form)?;
         if v.len() != 3 {
             let span = body_span(cx, st);
-            self.error(cx, span, format!("{} has {} values", cx.word_name, v.len()), format!("expected {form}"));
+            self.error(cx, span, format!("{} has {} values", cx.word_name(), v.len()), format!("expected {form}"));
             return None;
         }
         let d = Vector3::new(v[0], v[1], v[2]);
@@ -1298,16 +1278,13 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 "expected 12 values: a 3×4 matrix, row by row",
             );
         };
-        self.cam_votes.push(CamSystem::SolidworksCam);
+        self.cam.vote(CamSystem::SolidworksCam);
         let change = FrameChange { source: FrameSource::Csys(m), to_part: self.to_part };
         self.emit(cx.rec.span, ItemKind::Frame(Box::new(change)));
     }
 
     fn rotabl(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let args = match &st.body {
-            Body::Args(a) => a.as_slice(),
-            _ => &[],
-        };
+        let args = st.args();
         let mut angle = None;
         let mut axis = None;
         let mut sign = 1.0;
@@ -1410,15 +1387,15 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn carry(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, unknown: bool) {
-        let word = cx.word_name.clone();
+        let word = cx.word_name();
         match word.as_str() {
-            "CSI_SET_FLUTE_LENGTH" | "TRNTYP" => self.cam_votes.push(CamSystem::SolidworksCam),
+            "CSI_SET_FLUTE_LENGTH" | "TRNTYP" => self.cam.vote(CamSystem::SolidworksCam),
             "MOVE_ATTRIB" | "BOX" => {
                 self.camworks_vocabulary = true;
-                self.cam_votes.push(CamSystem::CamWorks);
+                self.cam.vote(CamSystem::CamWorks);
             }
-            "PAINT" | "TLDATA" => self.cam_votes.push(CamSystem::SiemensNx),
-            "MODE" => self.cam_votes.push(CamSystem::Fusion),
+            "PAINT" | "TLDATA" => self.cam.vote(CamSystem::SiemensNx),
+            "MODE" => self.cam.vote(CamSystem::Fusion),
             _ => {}
         }
         let span = cx.rec.span;
@@ -1445,11 +1422,11 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     fn vote_comment(&mut self, text: &str) {
         if text.contains("Pro/CLfile") {
-            self.cam_votes.insert(0, CamSystem::Creo);
+            self.cam.header(CamSystem::Creo);
         } else if text.contains("CATIA") {
-            self.cam_votes.insert(0, CamSystem::CatiaV5);
+            self.cam.header(CamSystem::CatiaV5);
         } else if text.contains("postpro-examples") {
-            self.cam_votes.insert(0, CamSystem::PostproExamples);
+            self.cam.header(CamSystem::PostproExamples);
         }
     }
 
@@ -1509,33 +1486,50 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 word: None,
             });
         }
-        self.info.cam_system = self.cam_votes.first().copied().map(|first| {
-            // An explicit header (inserted at the front) wins; otherwise the most frequent vote.
-            let mut best = (first, 0);
-            for c in &self.cam_votes {
-                let n = self.cam_votes.iter().filter(|d| *d == c).count();
-                if n > best.1 {
-                    best = (*c, n);
-                }
-            }
-            if matches!(
-                first,
-                CamSystem::Creo | CamSystem::CatiaV5 | CamSystem::PostproExamples | CamSystem::MakinoFfcam
-            ) {
-                first
-            } else {
-                best.0
-            }
-        });
+        self.info.cam_system = self.cam.decide();
         self.diags.sort_by_key(|d| d.span.start);
         (self.info, self.diags)
+    }
+}
+
+/// Evidence of the CAM system: an explicit header wins, otherwise the most frequent vocabulary.
+#[derive(Default)]
+struct CamEvidence {
+    header: Option<CamSystem>,
+    votes: [u32; CamSystem::ALL.len()],
+}
+
+impl CamEvidence {
+    fn header(&mut self, cam: CamSystem) {
+        self.header.get_or_insert(cam);
+    }
+
+    fn vote(&mut self, cam: CamSystem) {
+        self.votes[cam as usize] += 1;
+    }
+
+    fn decide(&self) -> Option<CamSystem> {
+        let (best, &n) = self.votes.iter().enumerate().max_by_key(|&(k, n)| (n, std::cmp::Reverse(k)))?;
+        self.header.or((n > 0).then(|| CamSystem::ALL[best]))
     }
 }
 
 /// The statement being processed.
 struct Ctx<'r> {
     rec: &'r RawRecord<'r>,
-    word_name: String,
+    major: &'r str,
+    word: Word,
+}
+
+impl Ctx<'_> {
+    /// The canonical major word, for diagnostics and records (allocates: not on the hot path).
+    fn word_name(&self) -> String {
+        match self.word {
+            Word::Goto => String::from("GOTO"),
+            Word::AptSource if self.major.contains('=') => String::from("APT ASSIGNMENT"),
+            _ => canonical(self.major),
+        }
+    }
 }
 
 fn is_motion(w: Word) -> bool {
@@ -1619,7 +1613,8 @@ fn prescan_units(src: &str) -> UnitsInfo {
         if let Some(f) = first
             && matches!(bytes[f], b'U' | b'u' | b'F' | b'f')
             && let Some(RawUnit::Statement(rec)) = Splitter::at(src, pos).next()
-            && let Ok(st) = syntax::statement(&rec.text)
+            && let mut buf = syntax::Args::new()
+            && let Ok(st) = syntax::statement(&rec.text, &mut buf)
         {
             let words = || match &st.body {
                 Body::Args(a) => a

@@ -51,11 +51,12 @@ pub struct LineCol {
     pub column: usize,
 }
 
-/// A named CL text. The text is shared (`Arc`) so diagnostics can render it without copies.
+/// A named CL text. The text is shared (`Arc`) so diagnostics can render it without copies;
+/// it is an `Arc<String>` rather than `Arc<str>` so that taking a `String` never copies it.
 #[derive(Clone, Debug)]
 pub struct Source {
     name: String,
-    text: Arc<str>,
+    text: Arc<String>,
     latin1: bool,
     line_starts: Arc<OnceLock<Vec<u32>>>,
 }
@@ -65,8 +66,8 @@ impl Source {
     pub const MAX_LEN: usize = u32::MAX as usize;
 
     /// A source from text.
-    pub fn new(name: impl Into<String>, text: impl Into<Arc<str>>) -> Source {
-        Source { name: name.into(), text: text.into(), latin1: false, line_starts: Arc::default() }
+    pub fn new(name: impl Into<String>, text: impl Into<String>) -> Source {
+        Source { name: name.into(), text: Arc::new(text.into()), latin1: false, line_starts: Arc::default() }
     }
 
     /// A source from raw bytes: UTF-8 if valid, otherwise decoded as Latin-1 (every byte is a
@@ -92,7 +93,7 @@ impl Source {
     }
 
     /// The shared text.
-    pub fn shared_text(&self) -> Arc<str> {
+    pub fn shared_text(&self) -> Arc<String> {
         Arc::clone(&self.text)
     }
 

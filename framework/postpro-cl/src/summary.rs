@@ -42,8 +42,8 @@ pub struct Summary {
     pub bounding_box: Option<BoundingBox>,
     /// Path length of the tool tip (mm).
     pub path_length: PathLength,
-    /// Number of distinct tool axes (to 1e-6).
-    pub tool_axes: usize,
+    /// Moves and curves whose tool axis differs from the previous one (by more than 1e-6).
+    pub axis_changes: usize,
     /// Operations (`TOOL PATH`, `OPFEATSTART`).
     pub operations: usize,
     /// Frame changes (MSYS, CSYS, ROTABL).
@@ -175,6 +175,7 @@ struct Accumulator {
     feed_max: [f64; 2],
     feed_seen: [bool; 2],
     feeds: BTreeSet<u64>,
+    last_feed: Option<Feed>,
     spindle: Option<Range>,
     lo: Option<Point3<f64>>,
     hi: Option<Point3<f64>>,
@@ -184,7 +185,8 @@ struct Accumulator {
     last_was_feed: bool,
     simultaneous: bool,
     tilted: bool,
-    axes: BTreeSet<[i64; 3]>,
+    last_axis: Option<ToolAxis>,
+    axis_changes: usize,
     operations: usize,
     frames: usize,
 }
@@ -234,6 +236,8 @@ impl ItemSink for Accumulator {
                     entry.corner_radius.get_or_insert(round(s.corner_radius));
                 }
                 self.current_tool = Some(t.number);
+                // A new tool may come with a new (indexed) axis: not simultaneous motion.
+                self.last_was_feed = false;
             }
             ItemKind::ToolShape(s) => {
                 match self.current_tool.and_then(|n| self.tools.get_mut(&n)).filter(|t| t.diameter.is_none()) {
@@ -249,8 +253,14 @@ impl ItemSink for Accumulator {
                 r.min = r.min.min(speed);
                 r.max = r.max.max(speed);
             }
-            ItemKind::OperationStart(_) => self.operations += 1,
-            ItemKind::Frame(_) => self.frames += 1,
+            ItemKind::OperationStart(_) => {
+                self.operations += 1;
+                self.last_was_feed = false;
+            }
+            ItemKind::Frame(_) => {
+                self.frames += 1;
+                self.last_was_feed = false;
+            }
             _ => {}
         }
     }
@@ -283,8 +293,10 @@ impl Accumulator {
     }
 
     fn note_axis(&mut self, axis: ToolAxis) {
-        let key = axis.map(|c| (c * 1e6).round() as i64);
-        self.axes.insert([key.x, key.y, key.z]);
+        if self.last_axis.is_some_and(|a| (a.into_inner() - axis.into_inner()).norm() > 1e-6) {
+            self.axis_changes += 1;
+        }
+        self.last_axis = Some(axis);
         if (axis.z - 1.0).abs() > 1e-6 {
             self.tilted = true;
         }
@@ -307,7 +319,10 @@ impl Accumulator {
                     }
                     self.feed_min[k] = self.feed_min[k].min(f.value);
                     self.feed_max[k] = self.feed_max[k].max(f.value);
-                    self.feeds.insert(f.value.to_bits() ^ k as u64);
+                    if self.last_feed != Some(f) {
+                        self.feeds.insert(f.value.to_bits() ^ k as u64);
+                        self.last_feed = Some(f);
+                    }
                 }
                 if self.last_was_feed
                     && self.last_cut_axis.is_some_and(|a| (a.into_inner() - axis.into_inner()).norm() > 1e-5)
@@ -361,7 +376,7 @@ impl Accumulator {
                 max: [round(h.x), round(h.y), round(h.z)],
             }),
             path_length: PathLength { feed: round(self.length.feed), rapid: round(self.length.rapid) },
-            tool_axes: self.axes.len(),
+            axis_changes: self.axis_changes,
             operations: self.operations,
             frames: self.frames,
             uninterpreted_words: info.uninterpreted.iter().map(|(w, u)| (w.clone(), u.count)).collect(),

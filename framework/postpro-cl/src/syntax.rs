@@ -29,19 +29,29 @@ pub(crate) struct Statement<'a> {
     pub(crate) issues: SmallVec<[SyntaxIssue; 1]>,
 }
 
+impl<'a> Statement<'a> {
+    /// The arguments (none for a statement without a slash or with free text).
+    pub(crate) fn args(&self) -> &'a [Arg<'a>] {
+        match self.body {
+            Body::Args(a) => a,
+            _ => &[],
+        }
+    }
+}
+
 /// What follows the major word.
 #[derive(Debug)]
-#[allow(clippy::large_enum_variant)] // on the stack only: inline arguments avoid a heap allocation per GOTO
 pub(crate) enum Body<'a> {
     /// No slash.
     None,
-    /// Comma-separated arguments (possibly none: `RAPID/`).
-    Args(Args<'a>),
+    /// Comma-separated arguments (possibly none: `RAPID/`), in the caller's buffer.
+    Args(&'a [Arg<'a>]),
     /// Free text (PPRINT, INSERT, PARTNO, …), trimmed.
     Text(&'a str),
 }
 
-/// The argument list; inline for up to eight arguments (every GOTO).
+/// The argument buffer the caller provides: inline for up to eight arguments (every GOTO), so
+/// a statement costs no heap allocation and no copy of its arguments.
 pub(crate) type Args<'a> = SmallVec<[Arg<'a>; 8]>;
 
 /// One argument with its byte range in the record text.
@@ -190,12 +200,11 @@ fn value(i: &str) -> PResult<'_, Value<'_>> {
 }
 
 /// The argument list after the slash. `base` is the offset of `i` in the record text.
-fn args<'a>(i: &'a str, base: usize, issues: &mut SmallVec<[SyntaxIssue; 1]>) -> PResult<'a, Args<'a>> {
+fn args<'a>(i: &'a str, base: usize, out: &mut Args<'a>, issues: &mut SmallVec<[SyntaxIssue; 1]>) -> PResult<'a, ()> {
     let at = |rest: &str| base + (i.len() - rest.len());
-    let mut out = Args::new();
     let (mut rest, _) = blanks(i)?;
     if rest.is_empty() {
-        return Ok((rest, out));
+        return Ok((rest, ()));
     }
     loop {
         let start = at(rest);
@@ -204,7 +213,7 @@ fn args<'a>(i: &'a str, base: usize, issues: &mut SmallVec<[SyntaxIssue; 1]>) ->
         let (r, _) = blanks(r)?;
         rest = r;
         match rest.as_bytes().first() {
-            None => return Ok((rest, out)),
+            None => return Ok((rest, ())),
             Some(b',') => {
                 let (r, _) = blanks(&rest[1..])?;
                 rest = r;
@@ -215,8 +224,9 @@ fn args<'a>(i: &'a str, base: usize, issues: &mut SmallVec<[SyntaxIssue; 1]>) ->
     }
 }
 
-/// Parses one record text into a statement.
-pub(crate) fn statement(text: &str) -> Result<Statement<'_>, SyntaxError> {
+/// Parses one record text into a statement; the arguments go into `buf` (cleared first).
+pub(crate) fn statement<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement<'b>, SyntaxError> {
+    buf.clear();
     let err = |e: nom::Err<PError<'_>>| match e {
         nom::Err::Error(e) | nom::Err::Failure(e) => {
             SyntaxError { at: text.len() - e.input.len(), expected: e.expected }
@@ -233,14 +243,14 @@ pub(crate) fn statement(text: &str) -> Result<Statement<'_>, SyntaxError> {
     let mut issues = SmallVec::new();
 
     // Slash-less free text: `PARTNO PART TO BE MACHINED`, `PPRINT TOOL: D 2,5`.
-    let first_token_len = body_text.find([' ', '\t', '/']).unwrap_or(body_text.len());
+    let first_token_len = memchr::memchr3(b' ', b'\t', b'/', body_text.as_bytes()).unwrap_or(body_text.len());
     let first = &body_text[..first_token_len];
     if Word::from_major(first).is_text() && !body_text[first_token_len..].trim_start().starts_with('/') {
         let rest = &body_text[first_token_len..];
         return Ok(Statement { major: first, word: Word::from_major(first), body: Body::Text(rest.trim()), issues });
     }
 
-    let (major, after) = match body_text.find('/') {
+    let (major, after) = match memchr::memchr(b'/', body_text.as_bytes()) {
         Some(k) => (&body_text[..k], Some(k + 1)),
         None => (body_text, None),
     };
@@ -253,9 +263,9 @@ pub(crate) fn statement(text: &str) -> Result<Statement<'_>, SyntaxError> {
         None => Body::None,
         Some(k) if word.is_text() => Body::Text(body_text[k..].trim()),
         Some(k) => {
-            let (rest, a) = args(&body_text[k..], start + k, &mut issues).map_err(err)?;
+            let (rest, ()) = args(&body_text[k..], start + k, buf, &mut issues).map_err(err)?;
             debug_assert!(rest.is_empty());
-            Body::Args(a)
+            Body::Args(buf.as_slice())
         }
     };
     Ok(Statement { major, word, body, issues })
@@ -271,14 +281,14 @@ fn sequence_number_len(t: &str) -> Option<usize> {
     (digits > 0 && blanks > 0 && 1 + digits + blanks < b.len()).then_some(1 + digits + blanks)
 }
 
-/// Parses a parenthesised group's text (`CIRCLE/ 25, 0, -30, 4.6`) as a statement.
-pub(crate) fn group_statement(text: &str) -> Result<Statement<'_>, SyntaxError> {
-    statement(text)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Parses with a leaked buffer: fine in tests.
+    fn statement(text: &str) -> Result<Statement<'_>, SyntaxError> {
+        super::statement(text, Box::leak(Box::new(Args::new())))
+    }
 
     fn nums(s: &Statement<'_>) -> Vec<f64> {
         match &s.body {

@@ -123,7 +123,7 @@ fn table(s: &Summary) -> String {
     });
     let _ = writeln!(t, "bounding box    {}", opt(bb));
     let _ = writeln!(t, "path length     {} mm at feed, {} mm rapid", s.path_length.feed, s.path_length.rapid);
-    let _ = writeln!(t, "tool axes       {} distinct", s.tool_axes);
+    let _ = writeln!(t, "tool axis       {} changes", s.axis_changes);
     let words = |m: &std::collections::BTreeMap<String, usize>| {
         if m.is_empty() {
             "-".to_string()
