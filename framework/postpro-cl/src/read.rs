@@ -49,6 +49,10 @@ pub fn read_into(source: &Source, sink: &mut impl ItemSink) -> (ProgramInfo, Vec
 /// At most this many diagnostics are kept; the rest are counted.
 const MAX_DIAGNOSTICS: usize = 10_000;
 
+/// The largest magnitude of a number in an interpreted statement, in mm (a million metres):
+/// beyond it sums and lengths could overflow.
+const MAX_MAGNITUDE: f64 = 1e9;
+
 /// Tolerance on a unit vector's length before a warning.
 const UNIT_TOLERANCE: f64 = 1e-3;
 
@@ -64,6 +68,8 @@ struct PendingArc {
 }
 
 struct PendingNurbs {
+    /// False after an error at `NURBS/`: its records are swallowed without more errors.
+    valid: bool,
     knots: Vec<f64>,
     control: Vec<Point3<f64>>,
     span: Span,
@@ -209,7 +215,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                     "statements after FINI".into(),
                     "read as part of the program".into(),
                 )
-                .with_help(format!("FINI is at byte {}; everything after it is read too", fini.start)),
+                .with_help(format!(
+                    "FINI is at line {}; everything after it is read too",
+                    line_of(self.src, fini.start as usize)
+                )),
             );
         }
         if let Some(ign) = rec.ignored {
@@ -289,7 +298,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             self.finish_nurbs();
         }
         if self.arc.is_some() && is_motion(st.word) && st.word != Word::Goto {
-            self.abandon_arc(cx);
+            self.abandon_arc();
         }
         match st.word {
             Word::Goto => self.goto(cx, st),
@@ -377,13 +386,13 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         let mut out = smallvec::SmallVec::new();
         for a in &args[..n] {
             match a.value {
-                Value::Num(v) if v.is_finite() => out.push(v),
+                Value::Num(v) if (v * self.scale).abs() <= MAX_MAGNITUDE => out.push(v),
                 Value::Num(_) => {
                     self.error(
                         cx,
                         arg_span(cx, a),
                         "number out of range",
-                        format!("expected a finite number ({form})"),
+                        format!("expected a number within ±1e9 mm ({form})"),
                     );
                     return None;
                 }
@@ -402,8 +411,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     /// APT source refers to named geometry: `goto/setpt2`, `goto/pb,-1,0,1`, `tlaxis/atangl,2,45`.
-    fn is_symbolic(st: &Statement<'_>) -> bool {
-        matches!(&st.body, Body::Args(a) if a.first().is_some_and(|a| matches!(a.value, Value::Word(_))))
+    /// Only in a file that already showed APT source statements; in CL data a word where a number
+    /// belongs is an error.
+    fn is_symbolic(&self, st: &Statement<'_>) -> bool {
+        self.first_apt_source.is_some() && st.args().first().is_some_and(|a| matches!(a.value, Value::Word(_)))
     }
 
     fn point(&self, x: f64, y: f64, z: f64) -> Point3<f64> {
@@ -443,9 +454,11 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn goto(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        if Self::is_symbolic(st) {
+        if self.is_symbolic(st) {
             return self.apt_source(cx, st);
         }
+        // RAPID applies to this statement even when it fails.
+        let motion = self.motion();
         let Some(v) = self.numbers(cx, st, "GOTO/x,y,z[,i,j,k]") else { return };
         if v.len() != 3 && v.len() != 6 {
             let span = body_span(cx, st);
@@ -458,24 +471,25 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
         self.fix_part_frame();
         if v.len() == 6 {
-            let span = body_span(cx, st);
+            let span = args_span(cx, st, 3, 6);
             let Some(axis) = self.direction(cx, span, v[3], v[4], v[5]) else { return };
             self.axis = axis;
         }
         let to = self.point(v[0], v[1], v[2]);
         if self.arc.is_some() {
-            return self.finish_arc(cx, to);
+            return self.finish_arc(cx, to, motion);
         }
-        let motion = self.motion();
         let kind = if self.in_cycle { MoveKind::Hole } else { MoveKind::Goto };
         self.position = Some(to);
         self.emit(cx.rec.span, ItemKind::Move(Move { to, axis: self.axis, motion, kind }));
     }
 
     fn from(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        if Self::is_symbolic(st) {
+        if self.is_symbolic(st) {
             return self.apt_source(cx, st);
         }
+        // FROM is a positioning: it takes a pending RAPID with it.
+        self.rapid = false;
         let Some(v) = self.numbers(cx, st, "FROM/x,y,z[,i,j,k]") else { return };
         if v.len() != 3 && v.len() != 6 {
             let span = body_span(cx, st);
@@ -488,7 +502,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
         self.fix_part_frame();
         if v.len() == 6 {
-            let span = body_span(cx, st);
+            let span = args_span(cx, st, 3, 6);
             let Some(axis) = self.direction(cx, span, v[3], v[4], v[5]) else { return };
             self.axis = axis;
         }
@@ -665,7 +679,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             );
         }
         let span = body_span(cx, st);
-        let Some(mut normal) = self.direction(cx, span, nums[3], nums[4], nums[5]) else { return };
+        let Some(mut normal) = self.direction(cx, args_span(cx, st, 3, 6), nums[3], nums[4], nums[5]) else { return };
         if direction == Some(-1.0) {
             normal = -normal;
         }
@@ -723,28 +737,25 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         });
     }
 
-    fn abandon_arc(&mut self, cx: &Ctx<'_>) {
+    fn abandon_arc(&mut self) {
         if let Some(arc) = self.arc.take() {
-            let span = arc.span;
-            self.error(
-                cx,
-                span,
-                format!("{} is not followed by its end point", arc.word),
-                "expected a GOTO to the arc's end point next",
-            );
+            let message = format!("{} is not followed by its end point", arc.word);
+            self.arc_error(&arc, arc.span, message, "expected a GOTO to the arc's end point next");
         }
     }
 
-    fn finish_arc(&mut self, cx: &Ctx<'_>, end: Point3<f64>) {
+    /// A diagnostic about an arc, counted under the arc's word (not the GOTO that ends it).
+    fn arc_error(&mut self, arc: &PendingArc, span: Span, message: String, label: &str) {
+        let d = Diagnostic::new(Severity::Error, "cl::statement", span, message, label.into());
+        self.diag(d.with_word(Some(arc.word.into())));
+    }
+
+    fn finish_arc(&mut self, cx: &Ctx<'_>, end: Point3<f64>, motion: Motion) {
         let Some(arc) = self.arc.take() else { return };
         let span = arc.span.to(cx.rec.span);
         let Some(start) = self.position else {
-            return self.error(
-                cx,
-                arc.span,
-                format!("{} with no start point", arc.word),
-                "expected a GOTO or FROM before the arc",
-            );
+            let message = format!("{} with no start point", arc.word);
+            return self.arc_error(&arc, arc.span, message, "expected a GOTO or FROM before the arc");
         };
         let n = arc.normal.into_inner();
         let radial = |p: Point3<f64>| {
@@ -757,24 +768,16 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         let tol = (radius * 1e-3).max(0.005 * self.scale);
         if (rs.norm() - radius).abs() > tol || (re.norm() - radius).abs() > tol {
             let (ds, de) = (rs.norm() - radius, re.norm() - radius);
-            self.warn(
-                cx,
-                span,
-                format!(
-                    "{} end points are off the circle (start {ds:+.4} mm, end {de:+.4} mm from r = {radius:.4})",
-                    arc.word
-                ),
-                "arc kept as written",
-                None,
+            let message = format!(
+                "{} end points are off the circle (start {ds:+.4} mm, end {de:+.4} mm from r = {radius:.4})",
+                arc.word
             );
+            let d = Diagnostic::new(Severity::Warning, "cl::statement", span, message, "arc kept as written".into());
+            self.diag(d.with_word(Some(arc.word.into())));
         }
         if rs.norm() < 1e-9 || re.norm() < 1e-9 {
-            return self.error(
-                cx,
-                span,
-                format!("{} starts or ends at its centre", arc.word),
-                "expected end points on the circle",
-            );
+            let message = format!("{} starts or ends at its centre", arc.word);
+            return self.arc_error(&arc, span, message, "expected end points on the circle");
         }
         let mut sweep = rs.cross(&re).dot(&n).atan2(rs.dot(&re));
         if sweep <= 1e-12 {
@@ -786,7 +789,6 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             let candidate = sweep % std::f64::consts::TAU + full * std::f64::consts::TAU;
             sweep = if (candidate - given).abs() < 1e-3 { candidate } else { given.max(sweep) };
         }
-        let motion = self.motion();
         self.position = Some(end);
         let arc = Arc { start, center: arc.center, normal: arc.normal, radius, end, sweep, axis: self.axis, motion };
         self.emit(span, ItemKind::Arc(Box::new(arc)));
@@ -898,8 +900,11 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     fn nurbs_start(&mut self, cx: &Ctx<'_>) {
         let span = cx.rec.span;
         match self.position {
-            Some(p) => self.nurbs = Some(PendingNurbs { knots: Vec::new(), control: vec![p], span }),
-            None => self.error(cx, span, "NURBS with no start point", "expected a GOTO before NURBS/"),
+            Some(p) => self.nurbs = Some(PendingNurbs { valid: true, knots: Vec::new(), control: vec![p], span }),
+            None => {
+                self.error(cx, span, "NURBS with no start point", "expected a GOTO before NURBS/");
+                self.nurbs = Some(PendingNurbs { valid: false, knots: Vec::new(), control: Vec::new(), span });
+            }
         }
     }
 
@@ -914,6 +919,18 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             if v.len() != 3 && v.len() != 4 {
                 return self.error(cx, span, format!("CNTRL has {} values", v.len()), "expected x,y,z");
             }
+            if v.len() == 4 && v[3] != 1.0 {
+                if let Some(n) = self.nurbs.as_mut() {
+                    n.valid = false;
+                }
+                let span = args_span(cx, st, 3, 4);
+                return self.error(
+                    cx,
+                    span,
+                    "rational NURBS weight",
+                    "expected weight 1 (rational NURBS are not supported)",
+                );
+            }
             let p = self.point(v[0], v[1], v[2]);
             if let Some(n) = self.nurbs.as_mut() {
                 n.control.push(p);
@@ -927,6 +944,9 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     fn finish_nurbs(&mut self) {
         let Some(n) = self.nurbs.take() else { return };
+        if !n.valid {
+            return;
+        }
         let ctx_word = String::from("NURBS");
         let count = n.control.len();
         // NX writes the knots after the leading `degree + 1` zeros and before the last `degree`
@@ -1166,7 +1186,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 let d = if rev { Delay::Revolutions(v) } else { Delay::Seconds(v) };
                 self.emit(cx.rec.span, ItemKind::Delay(d));
             }
-            _ => self.error(cx, body_span(cx, st), "DELAY without a duration", "expected DELAY/seconds or DELAY/REV,n"),
+            Some(_) => self.error(cx, body_span(cx, st), "negative dwell", "expected a duration ≥ 0"),
+            None => {
+                self.error(cx, body_span(cx, st), "DELAY without a duration", "expected DELAY/seconds or DELAY/REV,n")
+            }
         }
     }
 
@@ -1210,7 +1233,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn tlaxis(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        if Self::is_symbolic(st) {
+        if self.is_symbolic(st) {
             return self.apt_source(cx, st);
         }
         let Some(v) = self.numbers(cx, st, "TLAXIS/i,j,k") else { return };
@@ -1361,10 +1384,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn units(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let unit = match first_word(st).map(|w| w.to_ascii_uppercase()) {
-            Some(w) if matches!(w.as_str(), "MM" | "MILLIMETERS" | "MILLIMETRES" | "METRIC") => LengthUnit::Mm,
-            Some(w) if matches!(w.as_str(), "INCHES" | "INCH" | "IN") => LengthUnit::Inch,
-            _ => return self.error(cx, body_span(cx, st), "unknown unit", "expected UNITS/MM or UNITS/INCHES"),
+        let Some(unit) = first_word(st).and_then(unit_word) else {
+            return self.error(cx, body_span(cx, st), "unknown unit", "expected UNITS/MM or UNITS/INCHES");
         };
         if unit != self.unit {
             let (old, new) = (self.unit.name(), unit.name());
@@ -1469,7 +1490,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                     message: format!("unknown word `{word}` ({n} record{})", if n == 1 { "" } else { "s" }),
                     span: usage.first,
                     label: "carried through unchanged".into(),
-                    help: Some("the emitter writes unknown records as comments".into()),
+                    help: Some("kept in place as a record for the later stages; check the CAM post-processor settings if it should not be there".into()),
                     word: Some(word.clone()),
                 });
             }
@@ -1561,6 +1582,24 @@ fn body_span(cx: &Ctx<'_>, st: &Statement<'_>) -> Span {
     }
 }
 
+/// The source span of arguments `from..to` (clamped to the arguments present).
+fn args_span(cx: &Ctx<'_>, st: &Statement<'_>, from: usize, to: usize) -> Span {
+    let a = st.args();
+    match (a.get(from), a.get(to.min(a.len()).saturating_sub(1))) {
+        (Some(first), Some(last)) if last.end >= first.start => {
+            cx.rec.source_span(first.start as usize, (last.end as usize).max(first.start as usize + 1))
+        }
+        _ => body_span(cx, st),
+    }
+}
+
+/// The 1-based line of a byte offset (for messages; not on a hot path).
+fn line_of(src: &str, offset: usize) -> usize {
+    let bytes = &src.as_bytes()[..offset.min(src.len())];
+    let lone_cr = memchr::memchr_iter(b'\r', bytes).filter(|&k| bytes.get(k + 1) != Some(&b'\n')).count();
+    1 + memchr::memchr_iter(b'\n', bytes).count() + lone_cr
+}
+
 fn first_word<'a>(st: &Statement<'a>) -> Option<&'a str> {
     match &st.body {
         Body::Args(a) => a.iter().find_map(|a| if let Value::Word(w) = a.value { Some(w) } else { None }),
@@ -1600,6 +1639,15 @@ fn tool_path_names(st: &Statement<'_>) -> (String, Option<String>) {
     (op, tool)
 }
 
+/// The unit of a `UNITS` minor word.
+fn unit_word(w: &str) -> Option<LengthUnit> {
+    match w.to_ascii_uppercase().as_str() {
+        "MM" | "MILLIMETERS" | "MILLIMETRES" | "METRIC" => Some(LengthUnit::Mm),
+        "INCHES" | "INCH" | "IN" => Some(LengthUnit::Inch),
+        _ => None,
+    }
+}
+
 /// Finds the file's length unit before reading: the first `UNITS`/`UNIT` statement, else the
 /// unit word of the first `FEDRAT` that has one, else millimetres. Only lines that start with
 /// `U` or `F` are parsed, so this costs little more than a scan for line ends.
@@ -1608,7 +1656,7 @@ fn prescan_units(src: &str) -> UnitsInfo {
     let mut feed_hint = None;
     let mut pos = 0;
     while pos < bytes.len() {
-        let line_end = memchr::memchr(b'\n', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
+        let line_end = memchr::memchr2(b'\n', b'\r', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
         let first = bytes[pos..line_end].iter().position(|&c| c != b' ' && c != b'\t').map(|k| pos + k);
         if let Some(f) = first
             && matches!(bytes[f], b'U' | b'u' | b'F' | b'f')
@@ -1625,9 +1673,9 @@ fn prescan_units(src: &str) -> UnitsInfo {
             };
             match st.word {
                 Word::Units => {
-                    let unit =
-                        if words().iter().any(|w| w.starts_with("IN")) { LengthUnit::Inch } else { LengthUnit::Mm };
-                    return UnitsInfo { unit, origin: UnitsOrigin::Declared(rec.span) };
+                    if let Some(unit) = first_word(&st).and_then(unit_word) {
+                        return UnitsInfo { unit, origin: UnitsOrigin::Declared(rec.span) };
+                    }
                 }
                 Word::Fedrat if feed_hint.is_none() => {
                     let w = words();

@@ -167,7 +167,7 @@ fn quoted(i: &str) -> PResult<'_, &str> {
     let (rest, _) = nom::character::complete::char('\'').parse(i)?;
     match rest.find('\'') {
         Some(k) => Ok((&rest[k + 1..], &rest[..k])),
-        None => fail(rest, "a closing `'`"),
+        None => fail(i, "a closing `'` for this quote"),
     }
 }
 
@@ -186,7 +186,7 @@ fn group(i: &str) -> PResult<'_, &str> {
             _ => {}
         }
     }
-    fail(rest, "a closing `)`")
+    fail(i, "a closing `)` for this `(`")
 }
 
 fn value(i: &str) -> PResult<'_, Value<'_>> {
@@ -360,7 +360,10 @@ mod tests {
 
     #[test]
     fn errors_say_what_was_expected() {
-        assert_eq!(statement("GOTO/1,2,(3").map(|_| ()), Err(SyntaxError { at: 10, expected: "a closing `)`" }));
+        assert_eq!(
+            statement("GOTO/1,2,(3").map(|_| ()),
+            Err(SyntaxError { at: 9, expected: "a closing `)` for this `(`" })
+        );
         assert_eq!(statement("/1,2").map(|_| ()), Err(SyntaxError { at: 0, expected: "a major word before `/`" }));
         assert_eq!(
             statement("GOTO/1,2/3").map(|_| ()),

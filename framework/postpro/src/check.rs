@@ -132,7 +132,13 @@ fn table(s: &Summary) -> String {
         }
     };
     let _ = writeln!(t, "unknown words   {}", words(&s.unknown_words));
-    let _ = writeln!(t, "passed through  {}", words(&s.uninterpreted_words));
+    let known: std::collections::BTreeMap<String, usize> = s
+        .uninterpreted_words
+        .iter()
+        .filter(|(w, _)| !s.unknown_words.contains_key(*w))
+        .map(|(w, n)| (w.clone(), *n))
+        .collect();
+    let _ = writeln!(t, "passed through  {} (known words without effect on the path)", words(&known));
     let _ = writeln!(t, "warnings        {} ({})", s.warnings.total, words(&s.warnings.by_word));
     let _ = writeln!(t, "errors          {}", s.errors);
     t
