@@ -1,0 +1,195 @@
+//! Command-line tests of `postpro check FILE [--json] [--brief] [--timing]`: what a user sees
+//! and the exit codes (0 when the file reads, 1 for input errors, 2 for usage errors).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The repository root (this crate sits in `<repo>/framework/postpro`).
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Runs `postpro` from the repository root, so that relative paths read as a user types them.
+fn postpro(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_postpro")).args(args).current_dir(repo()).output().expect("postpro runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).expect("stdout is UTF-8")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).expect("stderr is UTF-8")
+}
+
+const EXAMPLE: &str = "examples/cl/hypar-5axis.cl";
+const ERROR_CASE: &str = "tests/cl/err_goto_arity.cl";
+const WARNING_CASE: &str = "tests/cl/warn_unknown_word.cl";
+
+#[test]
+fn check_prints_a_table_for_an_example() {
+    let o = postpro(&["check", EXAMPLE]);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let out = stdout(&o);
+    for line in [
+        format!("file            {EXAMPLE}"),
+        "CAM system      postpro example generator".to_string(),
+        "units           mm (feed word at 24:1); figures below in mm".to_string(),
+        "axes            5-axis".to_string(),
+        "tools           T1 BALL_D10 D10 R5".to_string(),
+        "errors          0".to_string(),
+    ] {
+        assert!(out.lines().any(|l| l == line), "missing `{line}` in:\n{out}");
+    }
+    for label in ["moves", "statements", "feeds", "spindle", "bounding box", "path length", "warnings"] {
+        assert!(out.lines().any(|l| l.starts_with(label)), "no `{label}` row in:\n{out}");
+    }
+    assert!(stderr(&o).is_empty(), "an example has no diagnostics:\n{}", stderr(&o));
+}
+
+#[test]
+fn check_json_has_the_stable_keys() {
+    let o = postpro(&["check", "--json", EXAMPLE]);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&o)).expect("stdout is JSON");
+    let keys =
+        |v: &serde_json::Value| -> BTreeSet<String> { v.as_object().expect("an object").keys().cloned().collect() };
+    let expected = |names: &[&str]| -> BTreeSet<String> { names.iter().map(|s| s.to_string()).collect() };
+    assert_eq!(
+        keys(&json),
+        expected(&[
+            "file",
+            "cam_system",
+            "part_name",
+            "units",
+            "axes",
+            "statements",
+            "moves",
+            "arcs",
+            "nurbs",
+            "tools",
+            "feeds",
+            "spindle",
+            "bounding_box",
+            "path_length",
+            "axis_changes",
+            "operations",
+            "frames",
+            "uninterpreted_words",
+            "unknown_words",
+            "warnings",
+            "errors",
+            "listing_lines",
+        ])
+    );
+    assert_eq!(keys(&json["units"]), expected(&["file", "origin", "at"]));
+    assert_eq!(keys(&json["moves"]), expected(&["total", "feed", "rapid", "holes"]));
+    assert_eq!(keys(&json["feeds"]), expected(&["per_minute", "per_revolution", "distinct"]));
+    assert_eq!(keys(&json["bounding_box"]), expected(&["min", "max"]));
+    assert_eq!(keys(&json["path_length"]), expected(&["feed", "rapid"]));
+    assert_eq!(keys(&json["warnings"]), expected(&["total", "by_word"]));
+    assert_eq!(keys(&json["tools"][0]), expected(&["number", "name", "diameter", "corner_radius", "loads"]));
+    assert_eq!(json["file"], EXAMPLE);
+    assert_eq!(json["axes"], "5-axis");
+    assert_eq!(json["errors"], 0);
+    assert_eq!(json["units"]["file"], "mm");
+}
+
+#[test]
+fn an_error_exits_1_and_names_file_line_column() {
+    let o = postpro(&["check", ERROR_CASE]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    // Rendered with the source line and a caret under the arguments.
+    assert!(err.contains(&format!("[{ERROR_CASE}:2:6]")), "{err}");
+    assert!(err.contains("GOTO has 4 values"), "{err}");
+    assert!(err.contains("expected 3 values (x,y,z) or 6 (x,y,z,i,j,k)"), "{err}");
+    assert!(err.contains("GOTO/1,2,3,4"), "the source line is shown:\n{err}");
+    // The summary is still printed, and counts the error.
+    assert!(stdout(&o).lines().any(|l| l == "errors          1"), "{}", stdout(&o));
+}
+
+#[test]
+fn brief_prints_one_line_per_diagnostic() {
+    let o = postpro(&["check", "--brief", ERROR_CASE]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "{ERROR_CASE}:2:6: error[cl::statement]: GOTO has 4 values: \
+             expected 3 values (x,y,z) or 6 (x,y,z,i,j,k)\n"
+        )
+    );
+    // Warnings alone do not fail the check.
+    let o = postpro(&["check", "--brief", WARNING_CASE]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let lines: Vec<String> = stderr(&o).lines().map(str::to_string).collect();
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert!(lines.iter().all(|l| l.starts_with(&format!("{WARNING_CASE}:")) && l.contains(": warning[")), "{lines:?}");
+}
+
+#[test]
+fn errors_are_listed_before_warnings() {
+    let dir = std::env::temp_dir().join(format!("postpro-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a temporary folder");
+    let file = dir.join("mixed.cl");
+    std::fs::write(&file, "COOLNT/\nGOTO/1,2,3,4\n").expect("a temporary file");
+    let o = postpro(&["check", "--brief", file.to_str().expect("a UTF-8 path")]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 2, "{err}");
+    assert!(lines[0].contains("mixed.cl:2:6: error["), "{err}");
+    assert!(lines[1].contains("mixed.cl:1:1: warning["), "{err}");
+}
+
+#[test]
+fn a_missing_file_exits_1_with_a_clear_message() {
+    let o = postpro(&["check", "no/such/file.cl"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.starts_with("error: cannot read no/such/file.cl: "), "{err}");
+    assert!(err.contains("No such file") || err.contains("cannot find"), "the OS reason is given: {err}");
+    assert!(stdout(&o).is_empty(), "no summary for a file that does not read");
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    for args in [
+        &["check", "--bogus", EXAMPLE][..], // unknown flag
+        &["check"],                         // missing FILE
+        &["check", EXAMPLE, "extra.cl"],    // one FILE only
+        &["frobnicate", EXAMPLE],           // unknown command
+        &[],                                // no command
+    ] {
+        let o = postpro(args);
+        assert_eq!(o.status.code(), Some(2), "postpro {args:?}:\n{}", stderr(&o));
+        assert!(stderr(&o).contains("Usage:"), "postpro {args:?} explains the usage:\n{}", stderr(&o));
+        assert!(stdout(&o).is_empty(), "postpro {args:?}");
+    }
+    let err = stderr(&postpro(&["check"]));
+    assert!(err.contains("<FILE>"), "names the missing argument: {err}");
+}
+
+#[test]
+fn help_and_version_exit_0() {
+    let o = postpro(&["check", "--help"]);
+    assert_eq!(o.status.code(), Some(0));
+    for flag in ["--json", "--brief", "--timing"] {
+        assert!(stdout(&o).contains(flag), "{}", stdout(&o));
+    }
+    let o = postpro(&["--version"]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(stdout(&o).starts_with("postpro "), "{}", stdout(&o));
+}
+
+#[test]
+fn timing_goes_to_stderr() {
+    let o = postpro(&["check", "--timing", "--json", EXAMPLE]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(stderr(&o).contains("MB/s"), "{}", stderr(&o));
+    // stdout stays machine-readable.
+    serde_json::from_str::<serde_json::Value>(&stdout(&o)).expect("stdout is JSON");
+}

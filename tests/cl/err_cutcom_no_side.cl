@@ -1,0 +1,2 @@
+$$ CUTCOM with a plane and no side.
+CUTCOM/XYPLAN

@@ -1,0 +1,2 @@
+$$ A dwell in revolutions without the number of revolutions.
+DELAY/REV

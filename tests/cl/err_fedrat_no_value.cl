@@ -1,0 +1,3 @@
+$$ FEDRAT with a unit and no value.
+FEDRAT/MMPM
+GOTO/1,2,3

@@ -1,0 +1,2 @@
+$$ Arguments with no major word before the slash.
+/1,2,3

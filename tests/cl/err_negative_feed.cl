@@ -1,0 +1,3 @@
+$$ A negative feed.
+FEDRAT/-100,MMPM
+GOTO/1,2,3

@@ -1,0 +1,2 @@
+$$ A number too large for a double.
+GOTO/1E999,2,3

@@ -1,0 +1,2 @@
+$$ An argument group opened with ( and never closed.
+GOTO/1,2,(3

@@ -1,0 +1,2 @@
+$$ A GOTO whose tool axis is the zero vector.
+GOTO/1,2,3,0,0,0

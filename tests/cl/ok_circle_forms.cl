@@ -1,0 +1,22 @@
+$$ The five CIRCLE forms of VOCABULARY.md, each with its end-point GOTO, on circles of radius 10.
+FEDRAT/MMPM,1000
+GOTO/10,0,0,0,0,1
+$$ 1. SOLIDWORKS CAM, 6 values, no radius: counter-clockwise about +Z, 90 degrees.
+CIRCLE/0,0,0,0,0,1.
+GOTO/0,10,0
+$$ 2. Creo, 7 values over two lines: counter-clockwise about +Z, 90 degrees.
+CIRCLE / 0.0000000000, 0.0000000000, 0.0000000000,  $
+0.0000000000, 0.0000000000, 1.0000000000,  10.0000000000
+GOTO / -10.0000000000, 0.0000000000, 0.0000000000
+$$ 3a. CAMWorks, 8 values, CLOCKWISE about +Z: 90 degrees back to (0,10,0).
+CIRCLE/ 0.000000,0.000000,0.000000,0.000000,0.000000,1.000000,10.000000,CLOCKWISE
+GOTO/ 0.000000,10.000000,0.000000
+$$ 3b. CAMWorks, COUNTERCLOCKWISE about +Z: the long way (270 degrees) to (10,0,0).
+CIRCLE/ 0.000000,0.000000,0.000000,0.000000,0.000000,1.000000,10.000000,COUNTERCLOCKWISE
+GOTO/ 10.000000,0.000000,0.000000
+$$ 4. NX, 11 values, axis -Z: clockwise seen from +Z, 90 degrees to (0,-10,0).
+CIRCLE/0.0000,0.0000,0.0000,0.0000000,0.0000000,-1.0000000,10.0000,0.0600,0.5000,25.0000,0.0000
+GOTO/0.0000,-10.0000,0.0000
+$$ 5. NX, 13 values with TIMES,3: a helix of 3 turns in all (2 full turns and 90 degrees), 5 mm down.
+CIRCLE/0.0000,0.0000,-5.0000,0.0000000,0.0000000,-1.0000000,10.0000,0.0600,0.5000,25.0000,0.0000,TIMES,3
+GOTO/-10.0000,0.0000,-5.0000

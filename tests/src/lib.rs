@@ -1,0 +1,59 @@
+//! # tests: the workspace-level test package
+//!
+//! The top-level `tests/` folder is a workspace package of its own. It holds the data-driven
+//! tests that span the product rather than one crate:
+//!
+//! - `reader.rs`: the APT/CL reader (`postpro-cl`) against every real CL file in
+//!   `../shared/data/cl`, the bundled examples in `examples/cl`, and the hand-written cases in
+//!   `tests/cl` (one input per diagnostic class: `err_*.cl`, `warn_*.cl`, and tricky valid
+//!   syntax in `ok_*.cl`), pinned with insta snapshots in `tests/snapshots/`.
+//!
+//! This library only holds the helpers those tests share: where the data lives.
+//!
+//! Run with `cargo test -p tests`; after an intended change of the reader's output, review the
+//! snapshots with `cargo insta review` (or `INSTA_UPDATE=always cargo test -p tests`, then
+//! read the diff).
+
+use std::path::{Path, PathBuf};
+
+/// The repository root (the workspace root).
+pub fn repo_root() -> PathBuf {
+    // This package sits in `<repo>/tests`. Canonical, so that paths found by walking a folder
+    // (which insta's `glob!` canonicalises) strip cleanly.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().map_or_else(|| PathBuf::from(".."), Path::to_path_buf);
+    root.canonicalize().unwrap_or(root)
+}
+
+/// The real CL corpus, `../shared/data/cl` seen from the repository root.
+///
+/// # Panics
+///
+/// When the folder is missing: `../shared` must sit beside the repository.
+pub fn shared_cl_dir() -> PathBuf {
+    let dir = repo_root().join("../shared/data/cl");
+    assert!(
+        dir.is_dir(),
+        "{} is missing: ../shared must sit beside the repository (the real CL files live in ../shared/data/cl)",
+        dir.display()
+    );
+    dir
+}
+
+/// The bundled example programs, `examples/cl`.
+pub fn examples_cl_dir() -> PathBuf {
+    repo_root().join("examples/cl")
+}
+
+/// The hand-written reader cases, `tests/cl`.
+pub fn cases_dir() -> PathBuf {
+    repo_root().join("tests/cl")
+}
+
+/// The path of `path` relative to the repository root, with `/` separators, for names in
+/// snapshots that do not depend on the machine (`tests/cl/err_goto_arity.cl`).
+pub fn repo_relative(path: &Path) -> String {
+    let root = repo_root();
+    let path = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+    let rel = path.strip_prefix(&root).unwrap_or(&path);
+    rel.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/")
+}
