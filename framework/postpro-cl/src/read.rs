@@ -49,8 +49,8 @@ pub fn read_into(source: &Source, sink: &mut impl ItemSink) -> (ProgramInfo, Vec
 /// At most this many diagnostics are kept; the rest are counted.
 const MAX_DIAGNOSTICS: usize = 10_000;
 
-/// The largest magnitude of a number in an interpreted statement, in mm (a million metres):
-/// beyond it sums and lengths could overflow.
+/// The largest magnitude of a number in an interpreted statement, after conversion to mm
+/// (a million metres; also mm/min, rpm, s, rad): beyond it sums and lengths could overflow.
 const MAX_MAGNITUDE: f64 = 1e9;
 
 /// Tolerance on a unit vector's length before a warning.
@@ -268,7 +268,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 self.finish_nurbs();
                 self.emit(
                     rec.span,
-                    ItemKind::Record(Record { word: word.unwrap_or_default(), args: rec.text.to_string() }),
+                    ItemKind::Record(Record {
+                        word: word.unwrap_or_default(),
+                        args: rec.text.split_once('/').map_or("", |(_, a)| a).trim().to_string(),
+                    }),
                 );
                 return;
             }
@@ -299,6 +302,12 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
         if self.arc.is_some() && is_motion(st.word) && st.word != Word::Goto {
             self.abandon_arc();
+        }
+        if st.word.is_interpreted()
+            && let Some(a) = st.args().iter().find(|a| matches!(a.value, Value::Num(v) if (v * self.scale).is_nan() || (v * self.scale).abs() > MAX_MAGNITUDE))
+        {
+            let span = arg_span(cx, a);
+            return self.error(cx, span, "number out of range", "expected a number within ±1e9 (mm, mm/min, s, rpm, rad)");
         }
         match st.word {
             Word::Goto => self.goto(cx, st),
@@ -386,16 +395,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         let mut out = smallvec::SmallVec::new();
         for a in &args[..n] {
             match a.value {
-                Value::Num(v) if (v * self.scale).abs() <= MAX_MAGNITUDE => out.push(v),
-                Value::Num(_) => {
-                    self.error(
-                        cx,
-                        arg_span(cx, a),
-                        "number out of range",
-                        format!("expected a number within ±1e9 mm ({form})"),
-                    );
-                    return None;
-                }
+                // Magnitudes were checked for every interpreted statement in `statement`.
+                Value::Num(v) => out.push(v),
                 _ => {
                     self.error(
                         cx,

@@ -157,6 +157,11 @@ impl Word {
         }
     }
 
+    /// Words whose arguments the reader turns into the tool path (not carried as records).
+    pub(crate) fn is_interpreted(self) -> bool {
+        !matches!(self, Word::Passive | Word::AptSource | Word::Other) && !self.is_text()
+    }
+
     /// Words whose argument is free text, never split on commas.
     pub(crate) fn is_text(self) -> bool {
         matches!(
