@@ -1,9 +1,10 @@
 //! `postpro`: the command line.
 //!
-//! Exit codes: 0 when the input reads, 1 for input errors (a CL file that does not read, a
-//! missing file), 2 for usage errors (clap's own code).
+//! Exit codes: 0 when the input reads, 1 for input errors (a CL file or machine definition that
+//! does not read, a missing file), 2 for usage errors (clap's own code).
 
 mod check;
+mod machines;
 
 use std::process::ExitCode;
 
@@ -22,11 +23,15 @@ enum Command {
     /// Read a CL file and print a summary: CAM system, units, moves, axes, tools, feeds,
     /// bounding box, path length, arcs, and warnings by word.
     Check(check::CheckArgs),
+    /// List the known machines (built in, and the files of `--dir` and POSTPRO_MACHINE_PATH), or
+    /// validate one machine definition with `--check FILE`.
+    Machines(machines::MachinesArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Check(args) => check::run(&args),
+        Command::Machines(args) => machines::run(&args),
     }
 }

@@ -1,0 +1,407 @@
+//! The YAML file format as plain serde types, mirroring the file key for key. Every struct
+//! denies unknown keys. Quantities are checked for their unit and dimension while they
+//! deserialize ([`crate::quantity`]); everything else is checked by [`crate::validate`], the one
+//! conversion into the [`crate::model`]. Kinematics never sees these types.
+//!
+//! Optional keys and their defaults (see `docs/machine-defs.md`):
+//! `aliases: []`, `description: ""`, `solver: generic`, `center` (rotary axes only, required
+//! there), `home: 0`, `decimals: 3`, `chain.part: []`, `chain.tool: []`,
+//! `chain.part_origin: { position: [0, 0, 0] }` (axes parallel to the base frame),
+//! `chain.tool_length: 0 mm`, the whole `cnc` section ([`Cnc::default`]) and the whole `policy`
+//! section ([`Policy::default`]), each key of which may also be left out on its own.
+
+use std::fmt;
+
+use serde::Deserialize;
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+
+use crate::quantity::{Angle, AxisQuantity, Feed, Length, LinearAcceleration, LinearJerk, Time};
+
+/// One machine definition file.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineFile {
+    /// The name users type.
+    pub name: String,
+    /// Other names.
+    #[serde(default)]
+    pub aliases: Vec<String>,
+    /// One line for `postpro machines`.
+    #[serde(default)]
+    pub description: String,
+    /// The controller dialect.
+    pub dialect: String,
+    /// `closed-form` or `generic` (default).
+    #[serde(default)]
+    pub solver: Solver,
+    /// The axes, in the order the NC program writes them.
+    pub axes: Vec<Axis>,
+    /// The kinematic chain.
+    pub chain: Chain,
+    /// CNC parameters (default: [`Cnc::default`]).
+    #[serde(default)]
+    pub cnc: Cnc,
+    /// IKT policy defaults (default: [`Policy::default`]).
+    #[serde(default)]
+    pub policy: Policy,
+}
+
+/// `solver:`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Solver {
+    /// The hand-derived closed form of the machine with this name.
+    ClosedForm,
+    /// The generic serial-chain solver.
+    #[default]
+    Generic,
+}
+
+/// `kind:` of an axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AxisKind {
+    /// Translates.
+    Linear,
+    /// Rotates.
+    Rotary,
+}
+
+/// One entry of `axes:`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    /// The NC address letter.
+    pub letter: String,
+    /// `linear` or `rotary`.
+    pub kind: AxisKind,
+    /// `[x, y, z]`, any length but not zero.
+    pub direction: [f64; 3],
+    /// `[x, y, z]`: a point on the axis line (rotary axes only).
+    #[serde(default)]
+    pub center: Option<[Length; 3]>,
+    /// `[min, max]` or `endless`.
+    pub travel: Travel,
+    /// Home position (default 0).
+    #[serde(default)]
+    pub home: Option<AxisQuantity<0>>,
+    /// Maximum velocity.
+    pub vmax: AxisQuantity<1>,
+    /// Maximum acceleration.
+    pub amax: AxisQuantity<2>,
+    /// Maximum jerk.
+    pub jmax: AxisQuantity<3>,
+    /// Decimals in the NC program (default 3).
+    #[serde(default = "default_decimals")]
+    pub decimals: u8,
+}
+
+fn default_decimals() -> u8 {
+    3
+}
+
+/// `travel:` of an axis.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Travel {
+    /// `[min, max]`.
+    Limited(AxisQuantity<0>, AxisQuantity<0>),
+    /// `endless`.
+    Endless,
+}
+
+impl<'de> Deserialize<'de> for Travel {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct TravelVisitor;
+        impl<'de> Visitor<'de> for TravelVisitor {
+            type Value = Travel;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("`[min, max]` or `endless`")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Travel, E> {
+                if v == "endless" { Ok(Travel::Endless) } else { Err(E::invalid_value(de::Unexpected::Str(v), &self)) }
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Travel, A::Error> {
+                let min = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(0, &self))?;
+                let max = seq.next_element()?.ok_or_else(|| de::Error::invalid_length(1, &self))?;
+                if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    return Err(de::Error::invalid_length(3, &self));
+                }
+                Ok(Travel::Limited(min, max))
+            }
+        }
+        deserializer.deserialize_any(TravelVisitor)
+    }
+}
+
+/// `chain:`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Chain {
+    /// The linear axes' letters.
+    pub linear: Vec<String>,
+    /// The part-side rotary axes, from the base to the part (default none).
+    #[serde(default)]
+    pub part: Vec<String>,
+    /// The tool-side rotary axes, from the base to the spindle (default none).
+    #[serde(default)]
+    pub tool: Vec<String>,
+    /// The part frame at all-zero (default: at the origin, parallel to the base frame).
+    #[serde(default)]
+    pub part_origin: Frame,
+    /// The spindle at all-zero.
+    pub spindle: Spindle,
+    /// Tool length from the spindle nose to the tip (default 0).
+    #[serde(default = "zero_length")]
+    pub tool_length: Length,
+}
+
+fn zero_length() -> Length {
+    Length(0.0)
+}
+
+/// `part_origin:`: a position and, optionally, the directions of the part frame's x and z axes.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Frame {
+    /// `[x, y, z]`.
+    pub position: [Length; 3],
+    /// The part frame's x axis (default: the base x, or as close to it as `z_axis` allows).
+    #[serde(default)]
+    pub x_axis: Option<[f64; 3]>,
+    /// The part frame's z axis (default: the base z, or as close to it as `x_axis` allows).
+    #[serde(default)]
+    pub z_axis: Option<[f64; 3]>,
+}
+
+impl Default for Frame {
+    fn default() -> Self {
+        Frame { position: [Length(0.0); 3], x_axis: None, z_axis: None }
+    }
+}
+
+/// `spindle:`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spindle {
+    /// The spindle nose (gauge point) at all-zero.
+    pub nose: [Length; 3],
+    /// The tool axis (tip → spindle) at all-zero.
+    pub direction: [f64; 3],
+}
+
+/// `cnc:`. Every key may be left out; the defaults are those of [`Cnc::default`].
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Cnc {
+    /// Interpolation cycle time (default 4 ms).
+    pub cycle_time: Time,
+    /// Blocks the look-ahead sees (default 10).
+    pub look_ahead: usize,
+    /// Contour tolerance (default 0.01 mm).
+    pub contour_tolerance: Length,
+    /// Share of the acceleration given to curvature, 0…1 (default 0.5).
+    pub curvature_accel_share: f64,
+    /// Tangential acceleration limit (default none).
+    pub tangential_accel: Option<LinearAcceleration>,
+    /// Tangential jerk limit (default none).
+    pub tangential_jerk: Option<LinearJerk>,
+    /// Smallest programmable feed (default 1 mm/min).
+    pub feed_min: Feed,
+    /// Largest programmable feed (default: the largest linear-axis `vmax`).
+    pub feed_max: Option<Feed>,
+}
+
+impl Default for Cnc {
+    fn default() -> Self {
+        Cnc {
+            cycle_time: Time(0.004),
+            look_ahead: 10,
+            contour_tolerance: Length(0.01),
+            curvature_accel_share: 0.5,
+            tangential_accel: None,
+            tangential_jerk: None,
+            feed_min: Feed(1.0),
+            feed_max: None,
+        }
+    }
+}
+
+/// `policy:`. Every key may be left out; the defaults are those of [`Policy::default`].
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Policy {
+    /// `closest`, `{positive: LETTER}` or `{negative: LETTER}` (default `closest`).
+    pub branch: Branch,
+    /// `whole-path` (default) or `greedy`.
+    pub choice: Choice,
+    /// Singular cone half-angle (default 0.05 deg).
+    pub singular_cone: Angle,
+    /// Largest continuous rotary step (default 30 deg).
+    pub max_rotary_step: Angle,
+    /// `error` (default) or `{retract: LENGTH}`.
+    pub on_discontinuity: OnDiscontinuity,
+    /// Largest tool-tip deviation (default 0.01 mm).
+    pub linearization_tolerance: Length,
+}
+
+impl Default for Policy {
+    fn default() -> Self {
+        Policy {
+            branch: Branch::Closest,
+            choice: Choice::WholePath,
+            singular_cone: Angle(0.05f64.to_radians()),
+            max_rotary_step: Angle(30f64.to_radians()),
+            on_discontinuity: OnDiscontinuity::Error,
+            linearization_tolerance: Length(0.01),
+        }
+    }
+}
+
+/// `choice:`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Choice {
+    /// Dynamic programming over the whole path.
+    #[default]
+    WholePath,
+    /// Point by point.
+    Greedy,
+}
+
+/// `branch:`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Branch {
+    /// `closest`.
+    #[default]
+    Closest,
+    /// `{positive: LETTER}`.
+    Positive(String),
+    /// `{negative: LETTER}`.
+    Negative(String),
+}
+
+/// The key of `branch: {positive: …}`.
+#[derive(Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum BranchKey {
+    Positive,
+    Negative,
+}
+
+impl<'de> Deserialize<'de> for Branch {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct BranchVisitor;
+        impl<'de> Visitor<'de> for BranchVisitor {
+            type Value = Branch;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("`closest`, `{positive: LETTER}` or `{negative: LETTER}`")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Branch, E> {
+                if v == "closest" { Ok(Branch::Closest) } else { Err(E::invalid_value(de::Unexpected::Str(v), &self)) }
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Branch, A::Error> {
+                let Some(key) = map.next_key::<BranchKey>()? else {
+                    return Err(de::Error::invalid_length(0, &self));
+                };
+                let letter: String = map.next_value()?;
+                if map.next_key::<de::IgnoredAny>()?.is_some() {
+                    return Err(de::Error::invalid_length(2, &self));
+                }
+                Ok(match key {
+                    BranchKey::Positive => Branch::Positive(letter),
+                    BranchKey::Negative => Branch::Negative(letter),
+                })
+            }
+        }
+        deserializer.deserialize_any(BranchVisitor)
+    }
+}
+
+/// `on_discontinuity:`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum OnDiscontinuity {
+    /// `error`.
+    #[default]
+    Error,
+    /// `{retract: LENGTH}`.
+    Retract(Length),
+}
+
+/// The key of `on_discontinuity: {retract: …}`.
+#[derive(Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum RetractKey {
+    Retract,
+}
+
+impl<'de> Deserialize<'de> for OnDiscontinuity {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct OnDiscontinuityVisitor;
+        impl<'de> Visitor<'de> for OnDiscontinuityVisitor {
+            type Value = OnDiscontinuity;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("`error` or `{retract: LENGTH}`")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<OnDiscontinuity, E> {
+                if v == "error" {
+                    Ok(OnDiscontinuity::Error)
+                } else {
+                    Err(E::invalid_value(de::Unexpected::Str(v), &self))
+                }
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<OnDiscontinuity, A::Error> {
+                let Some(RetractKey::Retract) = map.next_key::<RetractKey>()? else {
+                    return Err(de::Error::invalid_length(0, &self));
+                };
+                let clearance: Length = map.next_value()?;
+                if map.next_key::<de::IgnoredAny>()?.is_some() {
+                    return Err(de::Error::invalid_length(2, &self));
+                }
+                Ok(OnDiscontinuity::Retract(clearance))
+            }
+        }
+        deserializer.deserialize_any(OnDiscontinuityVisitor)
+    }
+}
+
+impl MachineFile {
+    /// Deserializes a definition (no semantic checks; see [`crate::validate`]).
+    pub fn from_yaml(text: &str) -> Result<MachineFile, serde_yaml::Error> {
+        serde_yaml::from_str(text)
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)] // a failed unwrap is a failed test
+mod tests {
+    use super::*;
+
+    #[test]
+    fn branch_forms() {
+        assert_eq!(serde_yaml::from_str::<Branch>("closest").unwrap(), Branch::Closest);
+        assert_eq!(serde_yaml::from_str::<Branch>("{positive: B}").unwrap(), Branch::Positive("B".into()));
+        assert_eq!(serde_yaml::from_str::<Branch>("negative: A").unwrap(), Branch::Negative("A".into()));
+        let e = serde_yaml::from_str::<Branch>("{positve: B}").unwrap_err().to_string();
+        assert!(e.contains("unknown variant `positve`, expected `positive` or `negative`"), "{e}");
+        assert!(serde_yaml::from_str::<Branch>("nearest").is_err());
+    }
+
+    #[test]
+    fn discontinuity_forms() {
+        assert_eq!(serde_yaml::from_str::<OnDiscontinuity>("error").unwrap(), OnDiscontinuity::Error);
+        assert_eq!(
+            serde_yaml::from_str::<OnDiscontinuity>("{retract: 5 mm}").unwrap(),
+            OnDiscontinuity::Retract(Length(5.0))
+        );
+        assert!(serde_yaml::from_str::<OnDiscontinuity>("{retract: 5 deg}").is_err());
+    }
+
+    #[test]
+    fn travel_forms() {
+        assert_eq!(serde_yaml::from_str::<Travel>("endless").unwrap(), Travel::Endless);
+        assert!(matches!(serde_yaml::from_str::<Travel>("[-1 m, 1 m]").unwrap(), Travel::Limited(..)));
+        assert!(serde_yaml::from_str::<Travel>("[1, 2, 3]").is_err());
+        assert!(serde_yaml::from_str::<Travel>("[1]").is_err());
+        assert!(serde_yaml::from_str::<Travel>("forever").is_err());
+    }
+}

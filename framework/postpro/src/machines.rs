@@ -1,0 +1,229 @@
+//! `postpro machines`: list every known machine (built in, and the files of the folders given by
+//! `--dir` and `POSTPRO_MACHINE_PATH`), or validate one definition with `--check FILE`.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use postpro_machine::model::{Machine, SolverKind};
+use postpro_machine::{Entry, MachineError, Registry};
+
+/// The environment variable with extra machine folders, separated like `PATH` (`:` on Unix).
+const PATH_VARIABLE: &str = "POSTPRO_MACHINE_PATH";
+
+/// Arguments of `postpro machines`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct MachinesArgs {
+    /// Print the list as JSON (stable keys) instead of a table.
+    #[arg(long, conflicts_with = "check")]
+    json: bool,
+    /// Also load every `*.yaml` and `*.yml` machine file of this folder (repeatable). The folders
+    /// in the environment variable POSTPRO_MACHINE_PATH (colon-separated) are loaded first.
+    #[arg(long = "dir", value_name = "DIR")]
+    dirs: Vec<PathBuf>,
+    /// Validate one machine definition file: print its diagnostic and exit with 1 if it has an
+    /// error, or print a one-line summary and exit with 0.
+    #[arg(long, value_name = "FILE")]
+    check: Option<PathBuf>,
+}
+
+pub(crate) fn run(args: &MachinesArgs) -> ExitCode {
+    if let Some(file) = &args.check {
+        return check(file);
+    }
+    let mut registry = match Registry::builtin() {
+        Ok(r) => r,
+        Err(e) => {
+            eprint!("{}", render(&e));
+            return ExitCode::from(1);
+        }
+    };
+    let mut dirs: Vec<PathBuf> = std::env::var_os(PATH_VARIABLE)
+        .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
+        .unwrap_or_default();
+    dirs.extend(args.dirs.iter().cloned());
+    let mut errors = Vec::new();
+    for dir in &dirs {
+        errors.extend(registry.load_dir(dir));
+    }
+    let mut err = std::io::stderr().lock();
+    for e in &errors {
+        let _ = err.write_all(render(e).as_bytes());
+    }
+    let mut out = std::io::stdout().lock();
+    let written = if args.json {
+        serde_json::to_writer_pretty(&mut out, &json(registry.entries()))
+            .map_err(std::io::Error::from)
+            .and_then(|()| writeln!(out))
+    } else {
+        out.write_all(table(registry.entries()).as_bytes())
+    };
+    match written {
+        // `postpro machines | head`: the reader has what it wanted.
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        Err(e) => {
+            let _ = writeln!(err, "error: cannot write the list: {e}");
+            return ExitCode::from(1);
+        }
+        Ok(()) => {}
+    }
+    if errors.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(1) }
+}
+
+/// `postpro machines --check FILE`.
+fn check(file: &Path) -> ExitCode {
+    let text = match std::fs::read_to_string(file) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: cannot read `{}`: {e}", file.display());
+            return ExitCode::from(1);
+        }
+    };
+    match postpro_machine::parse(&file.display().to_string(), &text) {
+        Ok(m) => {
+            println!(
+                "{}: ok: `{}`, {}, {} solver, {} dialect, axes {}",
+                file.display(),
+                m.name,
+                m.topology().label(),
+                solver(&m),
+                m.dialect,
+                letters(&m)
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprint!("{}", render(&e));
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// The miette rendering (file:line:column, the source line, a caret, what was expected),
+/// without colours like `postpro check`'s diagnostics.
+fn render(e: &MachineError) -> String {
+    let mut out = String::new();
+    let handler = miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor()).with_width(100);
+    if handler.render_report(&mut out, e).is_err() {
+        return format!("error: {e}\n");
+    }
+    out
+}
+
+fn solver(m: &Machine) -> &'static str {
+    match m.solver {
+        SolverKind::Generic => "generic",
+        SolverKind::ClosedForm(_) => "closed-form",
+    }
+}
+
+/// `X Y Z A C`
+fn letters(m: &Machine) -> String {
+    m.axes.iter().map(|a| a.letter.as_str()).collect::<Vec<_>>().join(" ")
+}
+
+/// One row per machine, columns aligned.
+fn table(entries: &[Entry]) -> String {
+    let mut rows: Vec<[String; 6]> =
+        vec![["name", "aliases", "topology", "solver", "dialect", "origin"].map(String::from)];
+    for e in entries {
+        let m = &e.machine;
+        let aliases = if m.aliases.is_empty() { "-".to_string() } else { m.aliases.join(", ") };
+        rows.push([
+            m.name.clone(),
+            aliases,
+            m.topology().label().to_string(),
+            solver(m).to_string(),
+            m.dialect.clone(),
+            e.origin.to_string(),
+        ]);
+    }
+    let mut widths = [0usize; 6];
+    for row in &rows {
+        for (w, cell) in widths.iter_mut().zip(row) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    let mut t = String::new();
+    for row in &rows {
+        let mut line = String::new();
+        for (k, (cell, w)) in row.iter().zip(widths).enumerate() {
+            if k + 1 == row.len() {
+                line.push_str(cell);
+            } else {
+                line.push_str(&format!("{cell:<w$}  "));
+            }
+        }
+        t.push_str(line.trim_end());
+        t.push('\n');
+    }
+    t
+}
+
+/// The list as JSON: one object per machine with the keys `name`, `aliases`, `description`,
+/// `topology`, `solver`, `dialect`, `axes` and `origin`.
+fn json(entries: &[Entry]) -> serde_json::Value {
+    let list = entries
+        .iter()
+        .map(|e| {
+            let m = &e.machine;
+            serde_json::json!({
+                "name": m.name,
+                "aliases": m.aliases,
+                "description": m.description,
+                "topology": m.topology().label(),
+                "solver": solver(m),
+                "dialect": m.dialect,
+                "axes": m.axes.iter().map(|a| a.letter.as_str()).collect::<Vec<_>>(),
+                "origin": e.origin.to_string(),
+            })
+        })
+        .collect();
+    serde_json::Value::Array(list)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn builtin() -> Registry {
+        Registry::builtin().expect("the built-in machines load")
+    }
+
+    #[test]
+    fn the_table_has_a_row_per_machine() {
+        let r = builtin();
+        let t = table(r.entries());
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(lines.len(), r.entries().len() + 1);
+        assert!(lines[0].starts_with("name "), "{t}");
+        let mikron = lines.iter().find(|l| l.starts_with("mikron-ucp710 ")).expect("a Mikron row");
+        for cell in ["mikron", "5-axis table-table", "closed-form", "siemens-840d", "built in"] {
+            assert!(mikron.contains(cell), "`{cell}` missing in `{mikron}`");
+        }
+        assert!(t.contains("5-axis head-head"), "{t}");
+    }
+
+    #[test]
+    fn the_json_has_stable_keys() {
+        let r = builtin();
+        let j = json(r.entries());
+        let list = j.as_array().expect("an array");
+        assert_eq!(list.len(), r.entries().len());
+        let keys: Vec<&str> = list[0].as_object().expect("an object").keys().map(String::as_str).collect();
+        assert_eq!(keys, ["aliases", "axes", "description", "dialect", "name", "origin", "solver", "topology"]);
+        let maho = list.iter().find(|m| m["name"] == "maho600e").expect("maho600e");
+        assert_eq!(maho["solver"], "closed-form");
+        assert_eq!(maho["origin"], "built in");
+        assert_eq!(maho["axes"], serde_json::json!(["X", "Y", "Z", "B", "C"]));
+    }
+
+    #[test]
+    fn diagnostics_render_without_colour() {
+        let e = postpro_machine::parse("m.yaml", "name: x\nnme: y\n").expect_err("an unknown key");
+        let shown = render(&e);
+        assert!(shown.contains("unknown key `nme`"), "{shown}");
+        assert!(shown.contains("[m.yaml:2:1]"), "{shown}");
+        assert!(!shown.contains('\u{1b}'), "no escape codes: {shown}");
+    }
+}
