@@ -1,0 +1,105 @@
+//! Linearization: between two points the CNC interpolates the axes linearly, so the tool tip
+//! follows a curve in the part frame, not the programmed segment (paper 002; paper 001 Fig. 2).
+//! Points are inserted (tip linear in the part frame, tool axis along the great circle) until the
+//! tip stays within the tolerance of the segment.
+
+use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
+
+use crate::policy::{Noted, Step, StepKind};
+use crate::pose::{Joints, Pose};
+use crate::solver::{Kinematics, Solutions};
+
+/// Deepest subdivision of one segment (2¹² pieces).
+const MAX_DEPTH: u32 = 12;
+/// Where the deviation is sampled on each piece.
+const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
+
+/// Inserts points between feed moves until the tool tip, with the axes interpolated linearly,
+/// stays within `tolerance` (mm) of every programmed segment. Returns the number inserted.
+pub fn linearize(kin: &dyn Kinematics, steps: &mut Vec<Step>, tolerance: f64) -> usize {
+    linearize_noting(kin, steps, &mut Vec::new(), tolerance)
+}
+
+/// [`linearize`], keeping the step indices of `decisions` pointing at the same steps.
+pub fn linearize_noting(kin: &dyn Kinematics, steps: &mut Vec<Step>, decisions: &mut [Noted], tolerance: f64) -> usize {
+    let mut out = Vec::with_capacity(steps.len());
+    let mut new_index = Vec::with_capacity(steps.len());
+    let mut inserted = 0;
+    let mut sols = Solutions::new();
+    for (k, step) in steps.iter().enumerate() {
+        if k > 0 && !step.rapid && matches!(step.kind, StepKind::Cl | StepKind::Reengage) {
+            let prev = steps[k - 1];
+            inserted += subdivide(kin, &prev, step, tolerance, 0, &mut out, &mut sols);
+        }
+        new_index.push(out.len());
+        out.push(*step);
+    }
+    for d in decisions.iter_mut() {
+        d.step = new_index.get(d.step).copied().unwrap_or(d.step);
+    }
+    *steps = out;
+    inserted
+}
+
+/// The largest distance of the interpolated tip from the segment `a.tip → b.tip`.
+pub fn deviation(kin: &dyn Kinematics, a: &Step, b: &Step) -> f64 {
+    SAMPLES
+        .iter()
+        .map(|&t| distance_to_segment(&kin.forward(&a.joints.lerp(&b.joints, t)).tip, &a.pose.tip, &b.pose.tip))
+        .fold(0.0, f64::max)
+}
+
+fn subdivide(
+    kin: &dyn Kinematics,
+    a: &Step,
+    b: &Step,
+    tolerance: f64,
+    depth: u32,
+    out: &mut Vec<Step>,
+    sols: &mut Solutions,
+) -> usize {
+    if depth >= MAX_DEPTH || deviation(kin, a, b) <= tolerance {
+        return 0;
+    }
+    let pose = Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * 0.5, axis: slerp(&a.pose.axis, &b.pose.axis, 0.5) };
+    let Some(joints) = nearest_solution(kin, &pose, &a.joints.lerp(&b.joints, 0.5), sols) else { return 0 };
+    let mid = Step { joints, pose, rapid: false, span: b.span, kind: StepKind::Linearized };
+    let left = subdivide(kin, a, &mid, tolerance, depth + 1, out, sols);
+    out.push(mid);
+    left + 1 + subdivide(kin, &mid, b, tolerance, depth + 1, out, sols)
+}
+
+/// The inverse solution closest to `near` (rotary angles unwound next to it).
+fn nearest_solution(kin: &dyn Kinematics, pose: &Pose, near: &Joints, sols: &mut Solutions) -> Option<Joints> {
+    kin.inverse(pose, sols);
+    let machine = kin.machine();
+    sols.iter()
+        .map(|s| {
+            let mut j = s.joints;
+            for (i, axis) in machine.axes.iter().enumerate() {
+                if axis.kind == postpro_machine::model::AxisKind::Rotary {
+                    j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
+                }
+            }
+            let d: f64 = j.as_slice().iter().zip(near.as_slice()).map(|(x, y)| (x - y).abs()).sum();
+            (d, j)
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map(|(_, j)| j)
+}
+
+/// The great-circle interpolation of two unit vectors.
+pub fn slerp(a: &Unit<Vector3<f64>>, b: &Unit<Vector3<f64>>, t: f64) -> Unit<Vector3<f64>> {
+    match UnitQuaternion::rotation_between(a, b) {
+        Some(q) => UnitQuaternion::identity().slerp(&q, t) * *a,
+        // Opposite vectors: no unique great circle; keep the first.
+        None => *a,
+    }
+}
+
+fn distance_to_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
+    let ab = b - a;
+    let len2 = ab.norm_squared();
+    let t = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + ab * t)).norm()
+}

@@ -1,0 +1,105 @@
+//! Machines built in code for the unit tests (the YAML definitions are tested elsewhere).
+
+use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
+use postpro_machine::model::*;
+
+fn axis(letter: &str, kind: AxisKind, dir: [f64; 3], center: [f64; 3], travel: Travel) -> Axis {
+    Axis {
+        letter: letter.into(),
+        kind,
+        direction: Unit::new_normalize(Vector3::from(dir)),
+        center: Point3::from(center),
+        travel,
+        home: 0.0,
+        vmax: 500.0,
+        amax: 2500.0,
+        jmax: 5000.0,
+        decimals: 4,
+    }
+}
+
+fn linear(letter: &str, dir: [f64; 3]) -> Axis {
+    axis(letter, AxisKind::Linear, dir, [0.0; 3], Travel::Limited { min: -2000.0, max: 2000.0 })
+}
+
+/// A machine with X Y Z and the given rotaries (letter, direction, centre, part side?).
+pub(crate) fn machine(rotaries: &[(&str, [f64; 3], [f64; 3], bool)], solver: SolverKind) -> Machine {
+    let mut axes = vec![linear("X", [1.0, 0.0, 0.0]), linear("Y", [0.0, 1.0, 0.0]), linear("Z", [0.0, 0.0, 1.0])];
+    let (mut part, mut tool) = (Vec::new(), Vec::new());
+    for &(l, d, c, on_part) in rotaries {
+        let travel = Travel::Limited { min: -20.0, max: 20.0 };
+        axes.push(axis(l, AxisKind::Rotary, d, c, travel));
+        if on_part { part.push(axes.len() - 1) } else { tool.push(axes.len() - 1) }
+    }
+    Machine {
+        name: "test".into(),
+        aliases: vec![],
+        description: String::new(),
+        dialect: "siemens-840d".into(),
+        axes,
+        chain: Chain {
+            linear: vec![0, 1, 2],
+            part,
+            tool,
+            part_origin: Isometry3::from_parts(
+                Translation3::new(12.0, -7.0, 35.0),
+                UnitQuaternion::from_euler_angles(0.1, -0.05, 0.3),
+            ),
+            spindle_nose: Point3::new(3.0, 4.0, 250.0),
+            tool_direction: Vector3::z_axis(),
+            tool_length: 80.0,
+        },
+        cnc: CncParams {
+            cycle_time: 0.003,
+            look_ahead: 10,
+            contour_tolerance: 0.01,
+            curvature_accel_share: 0.5,
+            tangential_accel: None,
+            tangential_jerk: None,
+            feed_min: 1.0,
+            feed_max: 30000.0,
+        },
+        policy: PolicyDefaults {
+            branch: BranchPreference::Closest,
+            choice: PathChoice::WholePath,
+            singular_cone: 0.05_f64.to_radians(),
+            max_rotary_step: 30_f64.to_radians(),
+            on_discontinuity: OnDiscontinuity::Error,
+            linearization_tolerance: 0.01,
+        },
+        solver,
+    }
+}
+
+/// Mikron-like CAXYZ with offsets.
+pub(crate) fn mikron(solver: SolverKind) -> Machine {
+    machine(
+        &[("A", [-1.0, 0.0, 0.0], [0.0, 10.0, -40.0], true), ("C", [0.0, 0.0, -1.0], [5.0, -3.0, 60.0], true)],
+        solver,
+    )
+}
+
+/// MAHO-like TTTRR with offsets.
+pub(crate) fn maho(solver: SolverKind) -> Machine {
+    machine(
+        &[("B", [0.0, -1.0, 0.0], [0.0, 0.0, 0.0], true), ("C", [0.0, 0.0, 1.0], [0.0, 0.0, -250.314], true)],
+        solver,
+    )
+}
+
+/// Head-head with a 45° nutating B on a C.
+pub(crate) fn nutating() -> Machine {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    machine(
+        &[("C", [0.0, 0.0, 1.0], [0.0, 0.0, 400.0], false), ("B", [0.0, s, s], [0.0, 0.0, 320.0], false)],
+        SolverKind::Generic,
+    )
+}
+
+/// Head-table: C on the table, B on the head.
+pub(crate) fn head_table() -> Machine {
+    machine(
+        &[("C", [0.0, 0.0, 1.0], [20.0, 30.0, 0.0], true), ("B", [0.0, 1.0, 0.0], [0.0, 0.0, 300.0], false)],
+        SolverKind::Generic,
+    )
+}

@@ -1,0 +1,224 @@
+//! The solvers on every built-in and example machine definition: forward of inverse is the
+//! identity, the closed forms agree with the generic chain, paper 000's Table 2, a MAHO 600E
+//! pose worked by hand from paper 002, and the real CL files of `../shared/data/cl`.
+
+use std::f64::consts::PI;
+use std::path::PathBuf;
+
+use nalgebra::{Point3, Unit, Vector3};
+use postpro_cl::{Source, read};
+use postpro_kin::{Chain, Joints, Kinematics, Pose, Solutions, SolveError, solve, solver_for};
+use postpro_machine::Registry;
+use postpro_machine::model::{AxisKind, Machine, SolverKind, Travel};
+use proptest::prelude::*;
+
+fn registry() -> Registry {
+    Registry::builtin().expect("the built-in definitions load")
+}
+
+fn machine(name: &str) -> Machine {
+    registry().find(name).expect("built in").machine.clone()
+}
+
+/// Random axis values inside every travel (endless rotaries: one turn either way).
+fn joints_in_travel(m: &Machine, unit: &[f64]) -> Joints {
+    let mut j = Joints::zeros(m.axes.len());
+    for (i, a) in m.axes.iter().enumerate() {
+        let (lo, hi) = match a.travel {
+            Travel::Limited { min, max } => (min, max),
+            Travel::Endless => (-PI, PI),
+        };
+        // Linear axes: a box around the middle of the travel keeps the tip near the part.
+        let (lo, hi) =
+            if a.kind == AxisKind::Linear { ((lo + hi) / 2.0 - 200.0, (lo + hi) / 2.0 + 200.0) } else { (lo, hi) };
+        j[i] = lo + (hi - lo) * unit[i % unit.len()];
+    }
+    j
+}
+
+fn same_angle(a: f64, b: f64) -> bool {
+    let d = (a - b).rem_euclid(2.0 * PI);
+    d < 1e-9 || 2.0 * PI - d < 1e-9
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, .. ProptestConfig::default() })]
+
+    /// FK(IK(pose)) = pose within 1e-9 for every branch, on every built-in and example machine,
+    /// for random poses in range; and the axis values the pose came from are among the solutions.
+    #[test]
+    fn forward_of_every_inverse_solution_is_the_pose(unit in prop::collection::vec(0.0f64..1.0, 6)) {
+        for entry in registry().entries() {
+            let kin = solver_for(&entry.machine);
+            let m = kin.machine();
+            let original = joints_in_travel(m, &unit);
+            let pose = kin.forward(&original);
+            let mut sols = Solutions::new();
+            kin.inverse(&pose, &mut sols);
+            prop_assert!(!sols.is_empty(), "{}: no solution for a pose it reached", m.name);
+            for s in sols.iter() {
+                let back = kin.forward(&s.joints);
+                prop_assert!((back.tip - pose.tip).norm() < 1e-9, "{}: tip {:?} vs {:?}", m.name, back.tip, pose.tip);
+                prop_assert!((back.axis.into_inner() - pose.axis.into_inner()).norm() < 1e-9, "{}: axis", m.name);
+            }
+            let singular = sols.iter().any(|s| s.pole.is_some_and(|(_, d)| d < 1e-6));
+            let found = sols.iter().any(|s| {
+                m.axes.iter().enumerate().all(|(i, a)| match a.kind {
+                    AxisKind::Linear => (s.joints[i] - original[i]).abs() < 1e-7,
+                    AxisKind::Rotary => same_angle(s.joints[i], original[i]),
+                })
+            });
+            prop_assert!(found || singular, "{}: {:?} not among {:?}", m.name, original, sols);
+        }
+    }
+}
+
+#[test]
+fn closed_forms_agree_with_the_generic_chain_on_the_built_ins() {
+    for name in ["mikron-ucp710", "maho600e"] {
+        let m = machine(name);
+        assert!(matches!(m.solver, SolverKind::ClosedForm(_)), "{name} is a closed form");
+        let closed = solver_for(&m);
+        let generic = Chain::new(Machine { solver: SolverKind::Generic, ..m.clone() });
+        let (mut a, mut b) = (Solutions::new(), Solutions::new());
+        for k in 0..2000 {
+            let t = f64::from(k) * 0.0137;
+            let axis = Unit::new_normalize(Vector3::new((3.0 * t).sin(), (2.0 * t).cos(), 0.2 + (t * 0.7).cos()));
+            let pose = Pose { tip: Point3::new(50.0 * t.sin(), 30.0 * t.cos(), 10.0 * t), axis };
+            closed.inverse(&pose, &mut a);
+            generic.inverse(&pose, &mut b);
+            assert_eq!(a.len(), b.len(), "{name}: {pose:?}");
+            for s in a.iter() {
+                let close = b
+                    .iter()
+                    .any(|g| g.joints.as_slice().iter().zip(s.joints.as_slice()).all(|(x, y)| (x - y).abs() < 1e-9));
+                assert!(close, "{name}: closed {s:?} not among generic {b:?}");
+            }
+        }
+    }
+}
+
+/// Paper 000, Table 2: with A limited to 150° of travel ([−120°, +30°] here), the number of
+/// admissible solutions is 0 for k in [−1, −0.5), 1 for [−0.5, 0.866), 2 for [0.866, 1), and
+/// infinite at k = 1 (the singularity: C is free).
+#[test]
+fn paper_000_table_2_admissible_mikron_solutions() {
+    let m = machine("mikron");
+    let kin = solver_for(&m);
+    let a = m.axis_index("A").expect("A");
+    let Travel::Limited { min, max } = m.axes[a].travel else { panic!("A is limited") };
+    let admissible = |k: f64, phi: f64| {
+        let s = (1.0 - k * k).sqrt();
+        let pose =
+            Pose { tip: Point3::origin(), axis: Unit::new_normalize(Vector3::new(s * phi.cos(), s * phi.sin(), k)) };
+        let mut sols = Solutions::new();
+        kin.inverse(&pose, &mut sols);
+        let singular = sols.iter().any(|s| s.pole.is_some_and(|(_, d)| d < 1e-12));
+        let count = sols.iter().filter(|s| s.joints[a] >= min - 1e-12 && s.joints[a] <= max + 1e-12).count();
+        (count, singular)
+    };
+    for (lo, hi, expected) in [(-1.0, -0.5, 0), (-0.5, 0.866, 1), (0.8661, 1.0, 2)] {
+        for n in 0..50 {
+            let k = lo + (hi - lo) * (f64::from(n) + 0.5) / 50.0;
+            for phi in [0.0, 1.0, 2.5, -2.0] {
+                assert_eq!(admissible(k, phi), (expected, false), "k = {k}, phi = {phi}");
+            }
+        }
+    }
+    let (count, singular) = admissible(1.0, 0.3);
+    assert!(singular && count >= 1, "k = 1 is the singularity: {count} solution(s) reported, C free");
+}
+
+/// Paper 002's forward transformation, its Z_m typo fixed (sin b / cos b), with the paper's
+/// offsets and a zero tool length, worked by hand for b = 30°, a = 40° and the workpiece point
+/// (10, 20, 5):
+///   X_m = 10·cos40·cos30 − 20·cos30·sin40 − (5 + 165 − 250.314)·sin30 + 298.92   = 334.5777…
+///   Y_m = 10·sin40 + 20·cos40 + 177.278                                           = 199.0268…
+///   Z_m = 10·sin30·cos40 − 20·sin40·sin30 + (5 + 165 − 250.314)·cos30 − 291.406   = −363.5576…
+/// and the tool axis (sin b cos a, −sin b sin a, cos b).
+#[test]
+fn maho_600e_pose_worked_by_hand() {
+    let m = machine("maho");
+    let kin = solver_for(&m);
+    let (b, a) = (30f64.to_radians(), 40f64.to_radians());
+    let axis = Unit::new_normalize(Vector3::new(b.sin() * a.cos(), -b.sin() * a.sin(), b.cos()));
+    let pose = Pose { tip: Point3::new(10.0, 20.0, 5.0), axis };
+    let mut sols = Solutions::new();
+    kin.inverse(&pose, &mut sols);
+    let expected = [334.577731497161, 199.02676495924493, -363.55761816081394, 30.0, 40.0];
+    let (xb, xc) = (m.axis_index("B").expect("B"), m.axis_index("C").expect("C"));
+    let hit = sols.iter().find(|s| (s.joints[xb].to_degrees() - 30.0).abs() < 1e-9).expect("the B = +30° branch");
+    for (i, e) in expected.iter().enumerate().take(3) {
+        assert!((hit.joints[i] - e).abs() < 1e-9, "axis {i}: {} vs {e}", hit.joints[i]);
+    }
+    assert!((hit.joints[xc].to_degrees() - expected[4]).abs() < 1e-9);
+    // The other branch: B = −30°, C = 40° ± 180°, and it reaches the same pose.
+    let other = sols.iter().find(|s| (s.joints[xb].to_degrees() + 30.0).abs() < 1e-9).expect("the B = −30° branch");
+    assert!(same_angle(other.joints[xc], (40f64 + 180.0).to_radians()));
+    assert!((kin.forward(&other.joints).tip - pose.tip).norm() < 1e-9);
+}
+
+fn shared_cl() -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/cl");
+    assert!(dir.is_dir(), "{} is missing: ../shared must sit beside the repository", dir.display());
+    dir
+}
+
+/// Every 5-axis and 3+2 file of the corpus goes through the IKT of both built-ins, or fails with
+/// an error that names a statement of the file; never a panic.
+#[test]
+fn real_multi_axis_files_through_both_built_ins() {
+    let mut report = Vec::new();
+    let mut files = 0;
+    for entry in std::fs::read_dir(shared_cl()).expect("listing") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "md") {
+            continue;
+        }
+        let source = Source::from_path(&path).expect("readable");
+        let (summary, _) = postpro_cl::summarize(&source);
+        if !matches!(summary.axes, "5-axis" | "3+2") {
+            continue;
+        }
+        files += 1;
+        let tool_path = read(&source);
+        for name in ["mikron-ucp710", "maho600e"] {
+            let m = machine(name);
+            let kin = solver_for(&m);
+            let outcome = match solve(kin.as_ref(), &tool_path, &m.policy) {
+                Ok(solved) => {
+                    assert!(!solved.steps.is_empty());
+                    for s in solved.steps.iter().step_by(7) {
+                        let back = kin.forward(&s.joints);
+                        assert!(
+                            (back.tip - s.pose.tip).norm() < 1e-6,
+                            "{name}: {}",
+                            source.location(s.span.start as usize)
+                        );
+                    }
+                    format!(
+                        "ok, {} steps, {} inserted, {} decisions",
+                        solved.steps.len(),
+                        solved.inserted,
+                        solved.decisions.len()
+                    )
+                }
+                Err(e) => {
+                    let span = match &e {
+                        SolveError::Unreachable { span, .. }
+                        | SolveError::OutOfTravel { span, .. }
+                        | SolveError::Discontinuity { span, .. } => *span,
+                    };
+                    assert!(
+                        span.end() <= source.text().len() && span.len > 0,
+                        "{name}: error without a statement: {e}"
+                    );
+                    format!("error at {}: {e}", source.location(span.start as usize))
+                }
+            };
+            report.push(format!("{} on {name}: {outcome}", path.file_name().unwrap_or_default().to_string_lossy()));
+        }
+    }
+    assert!(files >= 6, "only {files} multi-axis files found");
+    eprintln!("{}", report.join("\n"));
+}
