@@ -4,18 +4,20 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use postpro_cl::{Source, read};
-use postpro_kin::{Chain, Target, choose, solver_for, targets};
+use postpro_kin::{Chain, Policy, Target, choose, solver_for, targets};
 use postpro_machine::Registry;
-use postpro_machine::model::{Machine, SolverKind};
+use postpro_machine::model::{Machine, OnDiscontinuity, SolverKind};
 
 fn bench(c: &mut Criterion) {
     let source = Source::new("bench.cl", postpro_examples::big_goto_file(8 << 20));
     let path = read(&source);
-    // The Manta is 600 mm wide: centre it on the table so it stays inside the travels.
+    // The Manta is 600 mm wide: centre it on the table and halve it so it stays inside the
+    // travels of every machine (the tool axes are the Manta's).
     let mut poses: Vec<Target> = targets(&path, 0.01);
     for t in &mut poses {
-        t.pose.tip.x -= 300.0;
-        t.pose.tip.y -= 300.0;
+        t.pose.tip.x = (t.pose.tip.x - 300.0) * 0.5;
+        t.pose.tip.y = (t.pose.tip.y - 300.0) * 0.5;
+        t.pose.tip.z *= 0.5;
     }
     let registry = Registry::builtin().expect("built-in machines");
     let mut group = c.benchmark_group("ikt_policy");
@@ -25,7 +27,20 @@ fn bench(c: &mut Criterion) {
         let Ok(entry) = registry.find(name) else { continue };
         let machine: &Machine = &entry.machine;
         let closed = solver_for(machine);
-        let policy = machine.policy.clone();
+        // Near the pole the Manta's tool axes swing the table by more than the 30° step of the
+        // built-ins: retract there (the realistic setting for this path), so the whole path solves.
+        let policy =
+            Policy { on_discontinuity: OnDiscontinuity::Retract { clearance: 20.0 }, ..machine.policy.clone() };
+        // Measure the path solved, not an early error.
+        match choose(closed.as_ref(), &poses, &policy, None) {
+            Ok(solved) => eprintln!(
+                "{name}: {} poses, {} steps, {} decisions",
+                poses.len(),
+                solved.steps.len(),
+                solved.decisions.len()
+            ),
+            Err(e) => panic!("{name}: the benchmark path does not solve: {e}"),
+        }
         if matches!(machine.solver, SolverKind::ClosedForm(_)) {
             group.bench_function(format!("{name}/closed_form"), |b| {
                 b.iter(|| choose(closed.as_ref(), &poses, &policy, None).map(|s| s.steps.len()))

@@ -75,13 +75,16 @@ pub struct Step {
     pub kind: StepKind,
 }
 
+/// `(letter, from, to)` of each rotary axis, in degrees.
+pub type AxisMoves = Vec<(String, f64, f64)>;
+
 /// A decision that is not obvious, for the log and the NC program.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Decision {
     /// The solution branch changes: the rotary axes before and after (degrees).
     BranchSwitch {
-        /// `(letter, from, to)` of each rotary axis.
-        axes: Vec<(String, f64, f64)>,
+        /// The rotary axes before and after.
+        axes: AxisMoves,
     },
     /// Near the singularity the free axis is carried from the neighbours.
     SingularHold {
@@ -103,8 +106,8 @@ pub enum Decision {
     Retract {
         /// The clearance (mm).
         clearance: f64,
-        /// The rotary axes before and after (degrees).
-        axes: Vec<(String, f64, f64)>,
+        /// The rotary axes before and after.
+        axes: AxisMoves,
     },
 }
 
@@ -205,13 +208,8 @@ pub enum SolveError {
     },
 }
 
-#[derive(Clone, Copy, Debug)]
-struct Cand {
-    joints: Joints,
-    branch: u8,
-    free: Option<usize>,
-}
-
+/// A state of the dynamic programme: a solution at its unwound turn, the cost of the best path
+/// to it and the state it came from. An infinite cost marks an empty state.
 #[derive(Clone, Copy, Debug)]
 struct Node {
     cost: f64,
@@ -219,6 +217,14 @@ struct Node {
     joints: Joints,
     branch: u8,
     preferred: bool,
+}
+
+impl Node {
+    const EMPTY: Node = Node { cost: f64::INFINITY, pred: 0, joints: Joints::EMPTY, branch: 0, preferred: false };
+
+    fn is_live(&self) -> bool {
+        self.cost.is_finite()
+    }
 }
 
 /// Chooses one solution per target. `start` is where the machine is before the first target
@@ -245,42 +251,27 @@ pub fn choose(
         BranchPreference::Negative(l) => machine.axis_index(l).map(|i| (i, -1.0)),
     };
 
-    // 1. Every solution of every target.
-    let mut cands: Vec<[Option<Cand>; 2]> = Vec::with_capacity(targets.len());
-    let mut sols = Solutions::new();
-    for t in targets {
-        kin.inverse(&t.pose, &mut sols);
-        if sols.is_empty() {
-            let a = t.pose.axis;
-            return Err(SolveError::Unreachable {
-                span: t.span,
-                i: a.x,
-                j: a.y,
-                k: a.z,
-                machine: machine.name.clone(),
-            });
-        }
-        let mut c = [None, None];
-        for (slot, s) in c.iter_mut().zip(sols.iter()) {
-            let free = s.pole.filter(|&(_, d)| d < policy.singular_cone).map(|(axis, _)| axis);
-            *slot = Some(Cand { joints: s.joints, branch: s.branch, free });
-        }
-        cands.push(c);
-    }
-    let singular = |i: usize| cands[i].iter().flatten().all(|c| c.free.is_some());
-
-    // 2. Dynamic programming (or greedy) over the regular targets.
-    // A candidate at the turn nearest to `prev`, or the axis and value that leave the travel.
-    let realize = |c: &Cand, prev: &Joints| -> Result<Joints, (usize, f64)> {
-        let mut j = c.joints;
-        for &r in &rotary {
-            j[r] = unwrap_near(c.joints[r], prev[r], &machine.axes[r].travel).ok_or((r, c.joints[r]))?;
-        }
-        match linear.iter().find(|&&l| !machine.axes[l].travel.contains(j[l])) {
-            Some(&l) => Err((l, j[l])),
-            None => Ok(j),
+    let unreachable = |t: &Target| {
+        let a = t.pose.axis;
+        SolveError::Unreachable { span: t.span, i: a.x, j: a.y, k: a.z, machine: machine.name.clone() }
+    };
+    // The linear axes of a solution within their travels (they do not change with unwinding),
+    // or the axis and value that leave it.
+    let linear_ok = |c: &Joints| -> Result<(), (usize, f64)> {
+        match linear.iter().find(|&&l| !machine.axes[l].travel.contains(c[l])) {
+            Some(&l) => Err((l, c[l])),
+            None => Ok(()),
         }
     };
+    // A solution with its rotary angles at the turn nearest to `prev`, within their travels.
+    let unwound = |c: &Joints, prev: &Joints| -> Result<Joints, (usize, f64)> {
+        let mut j = *c;
+        for &r in &rotary {
+            j[r] = unwrap_near(c[r], prev[r], &machine.axes[r].travel).ok_or((r, c[r]))?;
+        }
+        Ok(j)
+    };
+    let realize = |c: &Joints, prev: &Joints| linear_ok(c).and_then(|()| unwound(c, prev));
     let describe = |(axis, value): (usize, f64)| {
         let a = &machine.axes[axis];
         out_of_travel(&a.letter, value, &a.travel, a.kind == AxisKind::Rotary)
@@ -288,41 +279,54 @@ pub fn choose(
     let preferred = |j: &Joints| preference.is_none_or(|(axis, sign)| j[axis] * sign >= -1e-9);
     let travel_cost = |a: &Joints, b: &Joints| rotary.iter().map(|&r| (a[r] - b[r]).abs()).sum::<f64>();
 
-    let regular: Vec<usize> = (0..targets.len()).filter(|&i| !singular(i)).collect();
-    let mut dp: Vec<[Option<Node>; 2]> = Vec::with_capacity(regular.len());
-    for (k, &i) in regular.iter().enumerate() {
-        let mut layer: [Option<Node>; 2] = [None, None];
-        let mut reasons = Vec::new();
-        for (s, cand) in cands[i].iter().enumerate() {
-            let Some(cand) = cand else { continue };
-            // The predecessors: the start for the first point, else the previous layer.
-            let start = [Some(Node { cost: 0.0, pred: 0, joints: home, branch: u8::MAX, preferred: true }), None];
-            let previous = if k == 0 { &start } else { &dp[k - 1] };
-            for (p, node) in previous.iter().enumerate() {
-                let Some(node) = node else { continue };
-                let (p, base, prev) = (p as u8, node.cost, node.joints);
-                let prev_branch = (k > 0).then_some(node.branch);
-                match realize(cand, &prev) {
+    // 1. Every solution of every target, and dynamic programming (or greedy) over the regular
+    //    ones; the singular targets (every solution within the cone) are filled in afterwards.
+    let mut regular: Vec<u32> = Vec::with_capacity(targets.len());
+    let mut free_axis_of_singular: Vec<(u32, u8)> = Vec::new();
+    let mut dp: Vec<[Node; 2]> = Vec::with_capacity(targets.len());
+    let mut sols = Solutions::new();
+    let start = [Node { cost: 0.0, pred: 0, joints: home, branch: u8::MAX, preferred: true }, Node::EMPTY];
+    for (i, t) in targets.iter().enumerate() {
+        kin.inverse(&t.pose, &mut sols);
+        if sols.is_empty() {
+            return Err(unreachable(t));
+        }
+        let free =
+            |s: &crate::solver::Solution| s.pole.filter(|&(_, d)| d < policy.singular_cone).map(|(axis, _)| axis);
+        if let Some(f) = sols.iter().map(free).reduce(|a, b| a.and(b)).flatten() {
+            free_axis_of_singular.push((i as u32, f as u8));
+            continue;
+        }
+        let mut layer = [Node::EMPTY; 2];
+        let mut reasons: [Option<(usize, f64)>; 4] = [None; 4];
+        let previous = dp.last().unwrap_or(&start);
+        for (s, cand) in sols.iter().enumerate() {
+            if let Err(reason) = linear_ok(&cand.joints) {
+                reasons[2 * s] = Some(reason);
+                continue;
+            }
+            for (p, node) in previous.iter().enumerate().filter(|(_, n)| n.is_live()) {
+                match unwound(&cand.joints, &node.joints) {
                     Ok(j) => {
                         let pref = preferred(&j);
-                        let switch = prev_branch.is_some_and(|b| b != cand.branch);
-                        let cost = base
-                            + travel_cost(&prev, &j)
+                        let switch = node.branch != u8::MAX && node.branch != cand.branch;
+                        let cost = node.cost
+                            + travel_cost(&node.joints, &j)
                             + if switch { SWITCH_COST } else { 0.0 }
                             + if pref { 0.0 } else { OFF_PREFERENCE_COST };
-                        if layer[s].is_none_or(|n| cost < n.cost) {
-                            layer[s] = Some(Node { cost, pred: p, joints: j, branch: cand.branch, preferred: pref });
+                        if cost < layer[s].cost {
+                            layer[s] = Node { cost, pred: p as u8, joints: j, branch: cand.branch, preferred: pref };
                         }
                     }
-                    Err(reason) => reasons.push(reason),
+                    Err(reason) => reasons[2 * s + p] = Some(reason),
                 }
             }
         }
-        if layer.iter().all(Option::is_none) {
-            let mut detail: Vec<String> = reasons.into_iter().map(describe).collect();
+        if !layer.iter().any(Node::is_live) {
+            let mut detail: Vec<String> = reasons.into_iter().flatten().map(describe).collect();
             detail.dedup();
             return Err(SolveError::OutOfTravel {
-                span: targets[i].span,
+                span: t.span,
                 detail: detail.join("; "),
                 machine: machine.name.clone(),
             });
@@ -330,73 +334,94 @@ pub fn choose(
         if policy.choice == PathChoice::Greedy {
             // Keep only the best: the next point is chosen from it alone.
             let best = best_state(&layer);
-            for (s, n) in layer.iter_mut().enumerate() {
-                if s != best {
-                    *n = None;
-                }
-            }
+            layer[1 - best] = Node::EMPTY;
         }
         dp.push(layer);
+        regular.push(i as u32);
     }
-    let mut chosen: Vec<Option<(Joints, u8, bool)>> = vec![None; targets.len()];
+    // Back from the best last state: the chosen state of every regular target.
+    let mut states = vec![0u8; dp.len()];
     if let Some(last) = dp.last() {
         let mut s = best_state(last);
         for k in (0..dp.len()).rev() {
-            let Some(n) = dp[k][s] else { break };
-            chosen[regular[k]] = Some((n.joints, n.branch, n.preferred));
-            s = usize::from(n.pred);
+            states[k] = s as u8;
+            s = usize::from(dp[k][s].pred);
         }
     }
+    let node = |k: usize| Some(dp[k][usize::from(states[k])]).filter(Node::is_live);
 
-    // 3. Singular runs: the free axis from the neighbours.
-    let mut decisions = Vec::new();
-    let mut joints: Vec<Joints> = Vec::with_capacity(targets.len());
+    // 2. The steps in path order: regular targets from the programme, singular runs with the
+    //    free axis carried from their neighbours; branch switches, preference and
+    //    discontinuities handled as each step is added.
+    let letters = |a: &Joints, b: &Joints| -> AxisMoves {
+        rotary.iter().map(|&r| (machine.axes[r].letter.clone(), a[r].to_degrees(), b[r].to_degrees())).collect()
+    };
+    // Room for a few retracts without reallocating the steps.
+    let mut out = Output { steps: Vec::with_capacity(targets.len() + targets.len() / 64 + 16), decisions: Vec::new() };
+    let step =
+        |t: &Target, joints: Joints| Step { joints, pose: t.pose, rapid: t.rapid, span: t.span, kind: StepKind::Cl };
+    let (mut k, mut sg) = (0usize, 0usize);
+    // The previous regular target: its index, chosen joints and branch.
+    let mut previous_regular: Option<(usize, Joints, u8)> = None;
+    let mut off_preference = false;
     let mut i = 0;
     while i < targets.len() {
-        if let Some((j, ..)) = chosen[i] {
-            joints.push(j);
+        if regular.get(k).is_some_and(|&r| r as usize == i) {
+            let n = node(k).ok_or_else(|| unreachable(&targets[i]))?;
+            let at = out.push(kin, &rotary, policy, step(&targets[i], n.joints), &letters)?;
+            if let Some((p, joints, b)) = previous_regular
+                && b != n.branch
+                && p + 1 == i
+            {
+                let decision = Decision::BranchSwitch { axes: letters(&joints, &n.joints) };
+                out.decisions.push(Noted { step: at, span: targets[i].span, decision });
+            }
+            if !n.preferred
+                && !off_preference
+                && let Some((axis, _)) = preference
+            {
+                let decision = Decision::OffPreference { axis: machine.axes[axis].letter.clone() };
+                out.decisions.push(Noted { step: at, span: targets[i].span, decision });
+            }
+            off_preference = !n.preferred;
+            previous_regular = Some((i, n.joints, n.branch));
             i += 1;
+            k += 1;
             continue;
         }
+        // A singular run: targets i..end.
         let start_run = i;
-        while i < targets.len() && chosen[i].is_none() {
+        while i < targets.len() && regular.get(k).is_none_or(|&r| r as usize != i) {
             i += 1;
         }
-        let before = joints.last().copied();
-        let after = chosen.get(i).copied().flatten().map(|(j, ..)| j);
-        let free = cands[start_run].iter().flatten().find_map(|c| c.free).unwrap_or(rotary[0]);
+        let before = out.steps.last().map(|s| s.joints);
+        let after = (k < regular.len()).then(|| node(k)).flatten().map(|n| n.joints);
+        let free = usize::from(free_axis_of_singular[sg].1);
+        sg += i - start_run;
         let from = before.unwrap_or(home)[free];
         let to = after.map_or(from, |a| unwrap_near(a[free], from, &Travel::Endless).unwrap_or(from));
         let count = i - start_run;
         // Spread the free axis over the run, unless that makes every step a discontinuity:
         // then hold it, and the one jump (if any) comes after the run.
         let spread = after.is_some() && (to - from).abs() / (count + 1) as f64 <= policy.max_rotary_step;
+        let mut first_step = None;
         for (n, t) in targets[start_run..i].iter().enumerate() {
             let u = if spread { (n + 1) as f64 / (count + 1) as f64 } else { 0.0 };
             let value = from + (to - from) * u;
-            let prev = joints.last().copied().unwrap_or(home);
-            let held = kin.inverse_holding(&t.pose, free, value).map(|j| Cand { joints: j, branch: 0, free: None });
-            let Some(held) = held else {
-                let a = t.pose.axis;
-                return Err(SolveError::Unreachable {
-                    span: t.span,
-                    i: a.x,
-                    j: a.y,
-                    k: a.z,
-                    machine: machine.name.clone(),
-                });
-            };
+            let prev = out.steps.last().map_or(home, |s| s.joints);
+            let held = kin.inverse_holding(&t.pose, free, value).ok_or_else(|| unreachable(t))?;
             let mut j = realize(&held, &prev).map_err(|reason| SolveError::OutOfTravel {
                 span: t.span,
                 detail: describe(reason),
                 machine: machine.name.clone(),
             })?;
             j[free] = value;
-            joints.push(j);
+            let at = out.push(kin, &rotary, policy, step(t, j), &letters)?;
+            first_step.get_or_insert(at);
         }
         let to = if spread { to } else { from };
-        decisions.push(Noted {
-            step: start_run,
+        out.decisions.push(Noted {
+            step: first_step.unwrap_or(out.steps.len()),
             span: targets[start_run].span,
             decision: Decision::SingularHold {
                 axis: machine.axes[free].letter.clone(),
@@ -406,122 +431,91 @@ pub fn choose(
             },
         });
     }
-
-    // 4. Branch switches and preference, then discontinuities.
-    let letters = |a: &Joints, b: &Joints| -> Vec<(String, f64, f64)> {
-        rotary.iter().map(|&r| (machine.axes[r].letter.clone(), a[r].to_degrees(), b[r].to_degrees())).collect()
-    };
-    let mut last_regular: Option<(usize, u8)> = None;
-    let mut off_pref_reported = false;
-    for (i, c) in chosen.iter().enumerate() {
-        let Some((_, branch, pref)) = *c else { continue };
-        if let Some((p, b)) = last_regular
-            && b != branch
-            && p + 1 == i
-        {
-            decisions.push(Noted {
-                step: i,
-                span: targets[i].span,
-                decision: Decision::BranchSwitch { axes: letters(&joints[p], &joints[i]) },
-            });
-        }
-        if !pref && !off_pref_reported {
-            if let Some((axis, _)) = preference {
-                decisions.push(Noted {
-                    step: i,
-                    span: targets[i].span,
-                    decision: Decision::OffPreference { axis: machine.axes[axis].letter.clone() },
-                });
-            }
-            off_pref_reported = true;
-        }
-        off_pref_reported &= !pref;
-        last_regular = Some((i, branch));
-    }
+    let Output { steps, mut decisions } = out;
     decisions.sort_by_key(|d| d.step);
-
-    let mut steps: Vec<Step> = targets
-        .iter()
-        .zip(&joints)
-        .map(|(t, j)| Step { joints: *j, pose: t.pose, rapid: t.rapid, span: t.span, kind: StepKind::Cl })
-        .collect();
-    let jumps: Vec<usize> = (1..steps.len())
-        .filter(|&i| !steps[i].rapid)
-        .filter(|&i| {
-            rotary.iter().any(|&r| (steps[i].joints[r] - steps[i - 1].joints[r]).abs() > policy.max_rotary_step)
-        })
-        .collect();
-    match policy.on_discontinuity {
-        OnDiscontinuity::Error => {
-            if let Some(&i) = jumps.first() {
-                let (a, b) = (&steps[i - 1].joints, &steps[i].joints);
-                let r = rotary
-                    .iter()
-                    .copied()
-                    .max_by(|&x, &y| (b[x] - a[x]).abs().total_cmp(&(b[y] - a[y]).abs()))
-                    .unwrap_or(0);
-                return Err(SolveError::Discontinuity {
-                    span: steps[i].span,
-                    axis: machine.axes[r].letter.clone(),
-                    from: a[r].to_degrees(),
-                    to: b[r].to_degrees(),
-                });
-            }
-        }
-        OnDiscontinuity::Retract { clearance } => {
-            for &i in jumps.iter().rev() {
-                let (prev, next) = (steps[i - 1], steps[i]);
-                let up = |s: &Step| Pose { tip: s.pose.tip + s.pose.axis.into_inner() * clearance, axis: s.pose.axis };
-                let retract = Step {
-                    joints: kin.place(&up(&prev), &prev.joints),
-                    pose: up(&prev),
-                    rapid: true,
-                    kind: StepKind::Retract,
-                    ..prev
-                };
-                let reorient = Step {
-                    joints: kin.place(&up(&next), &next.joints),
-                    pose: up(&next),
-                    rapid: true,
-                    kind: StepKind::Reorient,
-                    ..next
-                };
-                steps[i].kind = StepKind::Reengage;
-                steps.splice(i..i, [retract, reorient]);
-                for d in decisions.iter_mut().filter(|d| d.step >= i) {
-                    d.step += 2;
-                }
-                decisions.push(Noted {
-                    step: i,
-                    span: next.span,
-                    decision: Decision::Retract { clearance, axes: letters(&prev.joints, &next.joints) },
-                });
-            }
-            decisions.sort_by_key(|d| d.step);
-        }
-    }
     Ok(Solved { steps, decisions, inserted: 0 })
 }
 
-fn best_state(layer: &[Option<Node>; 2]) -> usize {
-    match layer {
-        [Some(a), Some(b)] if b.cost < a.cost => 1,
-        [None, Some(_)] => 1,
-        _ => 0,
+/// The steps being built, and the decisions about them.
+struct Output {
+    steps: Vec<Step>,
+    decisions: Vec<Noted>,
+}
+
+impl Output {
+    /// Adds a step and returns its index. A rotary step larger than the policy allows on a feed
+    /// move is an error, or is preceded by a retract above the previous point and a
+    /// reorientation above this one (this step then re-engages).
+    fn push(
+        &mut self,
+        kin: &dyn Kinematics,
+        rotary: &[usize],
+        policy: &Policy,
+        mut step: Step,
+        letters: &dyn Fn(&Joints, &Joints) -> AxisMoves,
+    ) -> Result<usize, SolveError> {
+        if let Some(&prev) = self.steps.last()
+            && !step.rapid
+            && let Some(&r) = rotary.iter().find(|&&r| (step.joints[r] - prev.joints[r]).abs() > policy.max_rotary_step)
+        {
+            match policy.on_discontinuity {
+                OnDiscontinuity::Error => {
+                    let r = rotary
+                        .iter()
+                        .copied()
+                        .max_by(|&x, &y| {
+                            (step.joints[x] - prev.joints[x]).abs().total_cmp(&(step.joints[y] - prev.joints[y]).abs())
+                        })
+                        .unwrap_or(r);
+                    return Err(SolveError::Discontinuity {
+                        span: step.span,
+                        axis: kin.machine().axes[r].letter.clone(),
+                        from: prev.joints[r].to_degrees(),
+                        to: step.joints[r].to_degrees(),
+                    });
+                }
+                OnDiscontinuity::Retract { clearance } => {
+                    let up =
+                        |s: &Step| Pose { tip: s.pose.tip + s.pose.axis.into_inner() * clearance, axis: s.pose.axis };
+                    let (a, b) = (up(&prev), up(&step));
+                    self.steps.push(Step {
+                        joints: kin.place(&a, &prev.joints),
+                        pose: a,
+                        rapid: true,
+                        kind: StepKind::Retract,
+                        ..prev
+                    });
+                    self.steps.push(Step {
+                        joints: kin.place(&b, &step.joints),
+                        pose: b,
+                        rapid: true,
+                        kind: StepKind::Reorient,
+                        ..step
+                    });
+                    step.kind = StepKind::Reengage;
+                    let decision = Decision::Retract { clearance, axes: letters(&prev.joints, &step.joints) };
+                    self.decisions.push(Noted { step: self.steps.len(), span: step.span, decision });
+                }
+            }
+        }
+        self.steps.push(step);
+        Ok(self.steps.len() - 1)
     }
+}
+
+fn best_state(layer: &[Node; 2]) -> usize {
+    usize::from(layer[1].cost < layer[0].cost)
 }
 
 /// `value` plus whole turns: the one nearest to `near` within the travel.
 fn unwrap_near(value: f64, near: f64, travel: &Travel) -> Option<f64> {
     let v = value + TAU * ((near - value) / TAU).round();
-    match *travel {
-        Travel::Endless => Some(v),
-        Travel::Limited { .. } => [0.0, -1.0, 1.0, -2.0, 2.0]
-            .into_iter()
-            .map(|k| v + k * TAU)
-            .filter(|w| travel.contains(*w))
-            .min_by(|a, b| (a - near).abs().total_cmp(&(b - near).abs())),
+    if travel.contains(v) {
+        return Some(v);
     }
+    // The nearest turn is outside: the next nearer one inside, if any (`v` is within π of `near`).
+    let (first, second) = if v < near { (v + TAU, v - TAU) } else { (v - TAU, v + TAU) };
+    [first, second, first + (first - v), second + (second - v)].into_iter().find(|w| travel.contains(*w))
 }
 
 fn out_of_travel(letter: &str, value: f64, travel: &Travel, rotary: bool) -> String {

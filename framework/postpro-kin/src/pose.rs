@@ -11,8 +11,8 @@ pub struct Pose {
     pub axis: Unit<Vector3<f64>>,
 }
 
-/// The most axes a machine may have.
-pub const MAX_AXES: usize = 6;
+/// The most axes a machine may have: three linear and two rotary (3-, 4- and 5-axis machines).
+pub const MAX_AXES: usize = 5;
 
 /// Axis values in the order of `Machine::axes` (mm and rad).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -22,6 +22,9 @@ pub struct Joints {
 }
 
 impl Joints {
+    /// No axes.
+    pub const EMPTY: Joints = Joints { values: [0.0; MAX_AXES], len: 0 };
+
     /// `len` zeros.
     pub fn zeros(len: usize) -> Joints {
         Joints { values: [0.0; MAX_AXES], len: len.min(MAX_AXES) as u8 }
