@@ -62,7 +62,7 @@ pub(crate) fn machine(rotaries: &[(&str, [f64; 3], [f64; 3], bool)], solver: Sol
         policy: PolicyDefaults {
             branch: BranchPreference::Closest,
             choice: PathChoice::WholePath,
-            singular_cone: 0.05_f64.to_radians(),
+            singular_cone: 0.5_f64.to_radians(),
             max_rotary_step: 30_f64.to_radians(),
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: 0.01,

@@ -234,7 +234,7 @@ pub struct Policy {
     pub branch: Branch,
     /// `whole-path` (default) or `greedy`.
     pub choice: Choice,
-    /// Singular cone half-angle (default 0.05 deg).
+    /// Singular cone half-angle (default 0.5 deg).
     pub singular_cone: Angle,
     /// Largest continuous rotary step (default 30 deg).
     pub max_rotary_step: Angle,
@@ -249,7 +249,7 @@ impl Default for Policy {
         Policy {
             branch: Branch::Closest,
             choice: Choice::WholePath,
-            singular_cone: Angle(0.05f64.to_radians()),
+            singular_cone: Angle(0.5f64.to_radians()),
             max_rotary_step: Angle(30f64.to_radians()),
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: Length(0.01),

@@ -593,7 +593,7 @@ impl Validator<'_> {
             return Err(self.err(
                 path!["policy", "singular_cone"],
                 format!("singular cone of {}", show(p.singular_cone.0, false)),
-                "expected a half-angle above 0 and below 90 deg, such as `0.05 deg`",
+                "expected a half-angle above 0 and below 90 deg, such as `0.5 deg`",
             ));
         }
         if p.max_rotary_step.0 <= 0.0 {

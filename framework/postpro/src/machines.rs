@@ -102,12 +102,7 @@ fn check(file: &Path) -> ExitCode {
 /// The miette rendering (file:line:column, the source line, a caret, what was expected),
 /// without colours like `postpro check`'s diagnostics.
 fn render(e: &MachineError) -> String {
-    let mut out = String::new();
-    let handler = miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor()).with_width(100);
-    if handler.render_report(&mut out, e).is_err() {
-        return format!("error: {e}\n");
-    }
-    out
+    crate::report::render(e)
 }
 
 fn solver(m: &Machine) -> &'static str {

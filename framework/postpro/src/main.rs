@@ -5,6 +5,8 @@
 
 mod check;
 mod machines;
+mod report;
+mod solve;
 
 use std::process::ExitCode;
 
@@ -26,6 +28,10 @@ enum Command {
     /// List the known machines (built in, and the files of `--dir` and POSTPRO_MACHINE_PATH), or
     /// validate one machine definition with `--check FILE`.
     Machines(machines::MachinesArgs),
+    /// Solve the inverse kinematics of a CL file on one machine: the axis values of every
+    /// position, the decisions (branch switches, singularities, retracts) and the points added
+    /// by linearization.
+    Solve(solve::SolveArgs),
 }
 
 fn main() -> ExitCode {
@@ -33,5 +39,6 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Check(args) => check::run(&args),
         Command::Machines(args) => machines::run(&args),
+        Command::Solve(args) => solve::run(&args),
     }
 }

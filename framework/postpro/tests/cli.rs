@@ -1,4 +1,4 @@
-//! Command-line tests of `postpro check FILE [--json] [--brief] [--timing]`: what a user sees
+//! Command-line tests of `postpro check` and `postpro solve`: what a user sees
 //! and the exit codes (0 when the file reads, 1 for input errors, 2 for usage errors).
 
 use std::collections::BTreeSet;
@@ -192,4 +192,70 @@ fn timing_goes_to_stderr() {
     assert!(stderr(&o).contains("MB/s"), "{}", stderr(&o));
     // stdout stays machine-readable.
     serde_json::from_str::<serde_json::Value>(&stdout(&o)).expect("stdout is JSON");
+}
+
+// ----- postpro solve --------------------------------------------------------------------------
+
+const FORCED_SWITCH: &str = "tests/kin/forced-branch-switch.cl";
+
+#[test]
+fn solve_prints_the_positions_and_decisions_of_an_example() {
+    let o = postpro(&["solve", EXAMPLE, "--machine", "maho"]);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("machine     maho600e (5-axis table-table)"), "{out}");
+    assert!(out.contains("positions   "), "{out}");
+    assert!(out.contains("axis B"), "{out}");
+    assert!(out.contains(&format!("  {EXAMPLE}:")), "decisions name file:line:column:\n{out}");
+}
+
+#[test]
+fn solve_csv_has_one_column_per_axis() {
+    let o = postpro(&["solve", EXAMPLE, "-m", "mikron", "--csv"]);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let out = stdout(&o);
+    let mut lines = out.lines();
+    assert_eq!(lines.next(), Some("step,line,kind,rapid,X_mm,Y_mm,Z_mm,A_deg,C_deg"));
+    let first = lines.next().expect("a first position");
+    assert_eq!(first.split(',').count(), 9, "{first}");
+}
+
+#[test]
+fn a_discontinuity_is_an_error_naming_the_line_or_a_retract() {
+    let o = postpro(&["solve", FORCED_SWITCH, "-m", "mikron"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains("no continuous solution"), "{err}");
+    assert!(err.contains(&format!("[{FORCED_SWITCH}:57:1]")), "{err}");
+    let o = postpro(&["solve", FORCED_SWITCH, "-m", "mikron", "--on-discontinuity", "retract:20"]);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    assert!(
+        stdout(&o).contains(&format!("{FORCED_SWITCH}:57:1: retract 20 mm, reorient, re-engage")),
+        "{}",
+        stdout(&o)
+    );
+}
+
+#[test]
+fn solve_usage_errors_exit_2() {
+    let o = postpro(&["solve", EXAMPLE, "-m", "mikorn"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("mikron"), "suggests the nearest name: {}", stderr(&o));
+    for bad in [["--branch", "sideways"], ["--on-discontinuity", "ignore"], ["--tolerance", "-1"], ["--branch", "+Q"]] {
+        let o = postpro(&["solve", EXAMPLE, "-m", "mikron", bad[0], bad[1]]);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}: {}", stderr(&o));
+    }
+}
+
+#[test]
+fn a_broken_machine_file_exits_1_with_its_location() {
+    let dir = std::env::temp_dir().join(format!("postpro-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let file = dir.join("broken.yaml");
+    let text = std::fs::read_to_string(repo().join("machine-defs/mikron-ucp710.yaml")).expect("mikron");
+    std::fs::write(&file, text.replace("vmax: 0.5 m/s", "vmax: 0.5 m/s^2")).expect("write");
+    let o = postpro(&["solve", EXAMPLE, "-m", file.to_str().expect("utf-8 path")]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("broken.yaml:"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,0 +1,257 @@
+//! `postpro solve FILE --machine NAME`: the inverse kinematics of a CL file on one machine:
+//! the axis values of every position, the decisions that are not obvious (branch switches,
+//! singular holds, retracts), and the points linearization added. The IKT options are shared
+//! with the commands that write NC programs.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use postpro_cl::Source;
+use postpro_kin::{Solved, StepKind, solve, solver_for};
+use postpro_machine::Registry;
+use postpro_machine::model::{AxisKind, BranchPreference, Machine, OnDiscontinuity, PathChoice};
+
+use crate::report;
+
+/// Arguments of `postpro solve`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct SolveArgs {
+    /// The CL file.
+    file: PathBuf,
+    #[command(flatten)]
+    machine: MachineArgs,
+    #[command(flatten)]
+    ikt: IktArgs,
+    /// Print every position as CSV (rotary axes in degrees) instead of the summary.
+    #[arg(long)]
+    csv: bool,
+}
+
+/// Which machine.
+#[derive(Debug, clap::Args)]
+pub(crate) struct MachineArgs {
+    /// The machine: a name or alias (`postpro machines` lists them), or a machine file (.yaml).
+    #[arg(long, short = 'm', value_name = "NAME|FILE")]
+    machine: String,
+    /// Also load the machine files of this folder (repeatable), after POSTPRO_MACHINE_PATH.
+    #[arg(long = "machine-dir", value_name = "DIR")]
+    dirs: Vec<PathBuf>,
+}
+
+/// The IKT policy options; each overrides the machine definition's default.
+#[derive(Debug, clap::Args)]
+pub(crate) struct IktArgs {
+    /// Preferred branch: `closest`, or `+A` / `-A` to keep a rotary axis ≥ 0 or ≤ 0.
+    #[arg(long, value_name = "closest|+AXIS|-AXIS", value_parser = parse_branch)]
+    branch: Option<BranchPreference>,
+    /// Choose point by point instead of over the whole path.
+    #[arg(long)]
+    greedy: bool,
+    /// Half-angle of the singular cone, degrees.
+    #[arg(long, value_name = "DEG", value_parser = positive)]
+    singular_cone: Option<f64>,
+    /// Largest rotary step between two points that is still continuous, degrees.
+    #[arg(long, value_name = "DEG", value_parser = positive)]
+    max_rotary_step: Option<f64>,
+    /// At a discontinuity: `error`, or `retract[:MM]` (retract along the tool axis, default 50 mm).
+    #[arg(long, value_name = "error|retract[:MM]", value_parser = parse_discontinuity)]
+    on_discontinuity: Option<OnDiscontinuity>,
+    /// Largest deviation of the tool tip from the programmed segments, mm (linearization).
+    #[arg(long, value_name = "MM", value_parser = positive)]
+    tolerance: Option<f64>,
+    /// Tool length from the spindle nose to the tip, mm.
+    #[arg(long, value_name = "MM", value_parser = non_negative)]
+    tool_length: Option<f64>,
+}
+
+fn positive(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a number > 0, found `{s}`")),
+    }
+}
+
+fn non_negative(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v >= 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a number ≥ 0, found `{s}`")),
+    }
+}
+
+fn parse_branch(s: &str) -> Result<BranchPreference, String> {
+    match s.as_bytes().first() {
+        _ if s.eq_ignore_ascii_case("closest") => Ok(BranchPreference::Closest),
+        Some(b'+') if s.len() > 1 => Ok(BranchPreference::Positive(s[1..].to_uppercase())),
+        Some(b'-') if s.len() > 1 => Ok(BranchPreference::Negative(s[1..].to_uppercase())),
+        _ => Err(format!("expected `closest`, `+AXIS` or `-AXIS`, found `{s}`")),
+    }
+}
+
+fn parse_discontinuity(s: &str) -> Result<OnDiscontinuity, String> {
+    match s.split_once(':') {
+        None if s == "error" => Ok(OnDiscontinuity::Error),
+        None if s == "retract" => Ok(OnDiscontinuity::Retract { clearance: 50.0 }),
+        Some(("retract", mm)) => positive(mm).map(|clearance| OnDiscontinuity::Retract { clearance }),
+        _ => Err(format!("expected `error`, `retract` or `retract:MM`, found `{s}`")),
+    }
+}
+
+impl IktArgs {
+    /// The machine with these overrides, or a message for a usage error.
+    pub(crate) fn apply(&self, machine: &mut Machine) -> Result<(), String> {
+        let p = &mut machine.policy;
+        if let Some(b) = &self.branch {
+            if let BranchPreference::Positive(axis) | BranchPreference::Negative(axis) = b {
+                let rotary =
+                    machine.axes.iter().any(|a| a.kind == AxisKind::Rotary && a.letter.eq_ignore_ascii_case(axis));
+                if !rotary {
+                    return Err(format!("--branch: {} has no rotary axis `{axis}`", machine.name));
+                }
+            }
+            p.branch = b.clone();
+        }
+        if self.greedy {
+            p.choice = PathChoice::Greedy;
+        }
+        if let Some(v) = self.singular_cone {
+            p.singular_cone = v.to_radians();
+        }
+        if let Some(v) = self.max_rotary_step {
+            p.max_rotary_step = v.to_radians();
+        }
+        if let Some(v) = self.on_discontinuity {
+            p.on_discontinuity = v;
+        }
+        if let Some(v) = self.tolerance {
+            p.linearization_tolerance = v;
+        }
+        if let Some(v) = self.tool_length {
+            machine.chain.tool_length = v;
+        }
+        Ok(())
+    }
+}
+
+impl MachineArgs {
+    /// The machine, or the exit code after printing why not (2 for an unknown name).
+    pub(crate) fn load(&self) -> Result<Machine, ExitCode> {
+        let mut registry = Registry::builtin().map_err(|e| fail(&report::render(&e), 1))?;
+        let mut dirs: Vec<PathBuf> = std::env::var_os("POSTPRO_MACHINE_PATH")
+            .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
+            .unwrap_or_default();
+        dirs.extend(self.dirs.iter().cloned());
+        for dir in &dirs {
+            for e in registry.load_dir(dir) {
+                eprint!("{}", report::render(&e));
+            }
+        }
+        let as_file = Path::new(&self.machine);
+        let is_file = as_file.extension().is_some_and(|e| e == "yaml" || e == "yml") || as_file.is_file();
+        if is_file {
+            return match registry.load_file(as_file) {
+                Ok(entry) => Ok(entry.machine.clone()),
+                Err(e) => Err(fail(&report::render(&e), 1)),
+            };
+        }
+        match registry.find(&self.machine) {
+            Ok(entry) => Ok(entry.machine.clone()),
+            Err(e) => Err(fail(&report::render(&e), 2)),
+        }
+    }
+}
+
+fn fail(message: &str, code: u8) -> ExitCode {
+    eprint!("{message}");
+    ExitCode::from(code)
+}
+
+pub(crate) fn run(args: &SolveArgs) -> ExitCode {
+    let mut machine = match args.machine.load() {
+        Ok(m) => m,
+        Err(code) => return code,
+    };
+    if let Err(message) = args.ikt.apply(&mut machine) {
+        return fail(&format!("error: {message}\n"), 2);
+    }
+    let source = match Source::from_path(&args.file) {
+        Ok(s) => s,
+        Err(e) => return fail(&format!("error: {e}\n"), 1),
+    };
+    let path = postpro_cl::read(&source);
+    if path.has_errors() {
+        for d in path.diagnostics.iter().filter(|d| d.is_error()) {
+            eprint!("{}", d.render(&source));
+        }
+        return fail(&format!("error: {} does not read; nothing solved\n", source.name()), 1);
+    }
+    let kin = solver_for(&machine);
+    let solved = match solve(kin.as_ref(), &path, &machine.policy) {
+        Ok(s) => s,
+        Err(e) => return fail(&report::render_with_source(e, source.name(), source.text()), 1),
+    };
+    let text = if args.csv { csv(&machine, &source, &solved) } else { summary(&machine, &source, &solved) };
+    print!("{text}");
+    ExitCode::SUCCESS
+}
+
+fn value(machine: &Machine, axis: usize, v: f64) -> f64 {
+    if machine.axes[axis].kind == AxisKind::Rotary { v.to_degrees() } else { v }
+}
+
+fn kind(k: StepKind) -> &'static str {
+    match k {
+        StepKind::Cl => "cl",
+        StepKind::Linearized => "linearized",
+        StepKind::Retract => "retract",
+        StepKind::Reorient => "reorient",
+        StepKind::Reengage => "reengage",
+    }
+}
+
+fn csv(machine: &Machine, source: &Source, solved: &Solved) -> String {
+    let mut out = String::from("step,line,kind,rapid");
+    for a in &machine.axes {
+        let unit = if a.kind == AxisKind::Rotary { "deg" } else { "mm" };
+        let _ = write!(out, ",{}_{unit}", a.letter);
+    }
+    out.push('\n');
+    for (k, s) in solved.steps.iter().enumerate() {
+        let line = source.line_col(s.span.start as usize).line;
+        let _ = write!(out, "{k},{line},{},{}", kind(s.kind), u8::from(s.rapid));
+        for (i, a) in machine.axes.iter().enumerate() {
+            let _ = write!(out, ",{:.*}", usize::from(a.decimals), value(machine, i, s.joints[i]));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+fn summary(machine: &Machine, source: &Source, solved: &Solved) -> String {
+    let mut out = String::new();
+    let cl = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
+    let _ = writeln!(out, "machine     {} ({})", machine.name, machine.topology().label());
+    let _ = writeln!(out, "file        {}", source.name());
+    let _ = writeln!(
+        out,
+        "positions   {} ({cl} from the CL file, {} added by linearization within {} mm)",
+        solved.steps.len(),
+        solved.inserted,
+        machine.policy.linearization_tolerance
+    );
+    for (i, a) in machine.axes.iter().enumerate() {
+        let (lo, hi) = solved
+            .steps
+            .iter()
+            .map(|s| value(machine, i, s.joints[i]))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        let unit = if a.kind == AxisKind::Rotary { "°" } else { " mm" };
+        let d = usize::from(a.decimals);
+        let _ = writeln!(out, "axis {:<6} {lo:.d$} … {hi:.d$}{unit}", a.letter);
+    }
+    let _ = writeln!(out, "decisions   {}", solved.decisions.len());
+    for d in &solved.decisions {
+        let _ = writeln!(out, "  {}: {}", source.location(d.span.start as usize), d.decision);
+    }
+    out
+}
