@@ -52,6 +52,14 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ),
     ("machine-defs/examples/head-table.yaml", include_str!("../../../machine-defs/examples/head-table.yaml")),
     (
+        "machine-defs/examples/maho600e-generic.yaml",
+        include_str!("../../../machine-defs/examples/maho600e-generic.yaml"),
+    ),
+    (
+        "machine-defs/examples/mikron-ucp710-generic.yaml",
+        include_str!("../../../machine-defs/examples/mikron-ucp710-generic.yaml"),
+    ),
+    (
         "machine-defs/examples/table-table-trunnion.yaml",
         include_str!("../../../machine-defs/examples/table-table-trunnion.yaml"),
     ),
