@@ -543,6 +543,26 @@ fn cut_keeps_record(text: &str, info: &LineInfo, col: usize) -> bool {
     part.chars().skip(col).any(|c| c != ' ' && c != '\t')
 }
 
+/// The `$` cuts drawn by `picks` (a line and a column inside it) among the lines of `text` that
+/// can take one, keeping only those that leave every record as it was; `None` when no line can.
+fn pick_cuts(text: &str, picks: &[(Index, Index)]) -> Option<Vec<(usize, usize)>> {
+    let infos = classify(text);
+    let lines: Vec<(usize, usize)> =
+        infos.iter().enumerate().filter_map(|(l, i)| cut_limit(text, i).map(|n| (l, n))).collect();
+    if lines.is_empty() {
+        return None;
+    }
+    let cuts = picks
+        .iter()
+        .map(|(l, c)| {
+            let (l, n) = *l.get(&lines);
+            (l, 1 + c.index(n - 1))
+        })
+        .filter(|&(l, c)| cut_keeps_record(text, &infos[l], c))
+        .collect();
+    Some(cuts)
+}
+
 /// Inserts `$` + line end at the given character columns (strictly inside) of the given lines.
 fn wrap_at(text: &str, cuts: &[(usize, usize)]) -> String {
     let lines = physical_lines(text);
@@ -968,19 +988,9 @@ proptest! {
         picks in prop::collection::vec((any::<Index>(), any::<Index>()), 1..32),
     ) {
         let text = window(&file(name).text, start, WINDOW);
-        let infos = classify(text);
-        let lines: Vec<(usize, usize)> =
-            infos.iter().enumerate().filter_map(|(l, i)| cut_limit(text, i).map(|n| (l, n))).collect();
-        prop_assume!(!lines.is_empty());
-        let cuts: Vec<(usize, usize)> = picks
-            .iter()
-            .map(|(l, c)| {
-                let (l, n) = *l.get(&lines);
-                (l, 1 + c.index(n - 1))
-            })
-            .filter(|&(l, c)| cut_keeps_record(text, &infos[l], c))
-            .collect();
-        let changed = wrap_at(text, &cuts);
+        let cuts = pick_cuts(text, &picks);
+        prop_assume!(cuts.is_some());
+        let changed = wrap_at(text, &cuts.unwrap_or_default());
         same_path("`$` continuations", &Source::new(name, text), &Source::new(name, changed), EXACT)?;
     }
 
@@ -1092,21 +1102,10 @@ proptest! {
         same_as_read("CRLF", original, &Source::new(name, to_crlf(text)), EXACT)?;
         same_as_read("CR", original, &Source::new(name, to_cr(text)), EXACT)?;
         same_as_read(&format!("wrap at column {n}"), original, &Source::new(name, wrap_catia(text, n)), EXACT)?;
-        let infos = classify(text);
-        let lines: Vec<(usize, usize)> =
-            infos.iter().enumerate().filter_map(|(l, i)| cut_limit(text, i).map(|n| (l, n))).collect();
-        if !lines.is_empty() {
-            let cuts: Vec<(usize, usize)> = picks
-                .iter()
-                .map(|(l, c)| {
-                    let (l, n) = *l.get(&lines);
-                    (l, 1 + c.index(n - 1))
-                })
-                .filter(|&(l, c)| cut_keeps_record(text, &infos[l], c))
-                .collect();
+        if let Some(cuts) = pick_cuts(text, &picks) {
             same_as_read("`$` continuations", original, &Source::new(name, wrap_at(text, &cuts)), EXACT)?;
         }
-        let gaps = comment_gaps(&infos);
+        let gaps = comment_gaps(&classify(text));
         let comments: Vec<(usize, String)> = comments.into_iter().map(|(g, c)| (*g.get(&gaps), c)).collect();
         let how = Compare { without_comments: true, fold_case: false };
         same_as_read("comment lines", original, &Source::new(name, insert_comments(text, &comments)), how)?;
