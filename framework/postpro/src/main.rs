@@ -1,9 +1,11 @@
-//! `postpro`: the command line.
+//! `postpro`: the command line. `postpro --machine NAME FILE.cl` writes the NC program (the
+//! main job, `emit`); subcommands check CL files, list machines and solve the kinematics.
 //!
 //! Exit codes: 0 when the input reads, 1 for input errors (a CL file or machine definition that
 //! does not read, a missing file), 2 for usage errors (clap's own code).
 
 mod check;
+mod emit;
 mod machines;
 mod report;
 mod solve;
@@ -14,10 +16,19 @@ use clap::{Parser, Subcommand};
 
 /// Post-processor for multi-axis CNC milling: APT/CL in, NC programs out.
 #[derive(Debug, Parser)]
-#[command(name = "postpro", version, about, propagate_version = true)]
+#[command(
+    name = "postpro",
+    version,
+    about,
+    propagate_version = true,
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+    #[command(flatten)]
+    job: emit::EmitArgs,
 }
 
 #[derive(Debug, Subcommand)]
@@ -36,7 +47,15 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match cli.command {
+    let Some(command) = cli.command else {
+        if !cli.job.given() {
+            use clap::CommandFactory;
+            let _ = Cli::command().print_help();
+            return ExitCode::from(2);
+        }
+        return emit::run(&cli.job);
+    };
+    match command {
         Command::Check(args) => check::run(&args),
         Command::Machines(args) => machines::run(&args),
         Command::Solve(args) => solve::run(&args),

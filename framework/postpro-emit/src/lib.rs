@@ -1,0 +1,45 @@
+//! # postpro-emit: NC programs
+//!
+//! From a solved tool path to the text of an NC program, in two steps:
+//! 1. [`build`] makes the **template context** ([`Program`]): the header, the tools, and one
+//!    [`Block`] per line in the order of the CL file, numbers already formatted for the dialect
+//!    (fixed decimals per axis, never `-0`), only the words that change;
+//! 2. [`render`] writes it with the dialect's minijinja template (`templates/<dialect>.j2`, or
+//!    the user's), undefined names being errors.
+//!
+//! Modes: `g1` (axis values, programmed feed), `inverse-time` (G93, F = 1/Δt on every block,
+//! Δt = part-space length / feed, blocks split to respect the controller's minimum F),
+//! `tcp` (tool tip and vector; the controller solves the kinematics).
+
+mod dialect;
+mod format;
+mod program;
+mod render;
+
+pub use dialect::{DIALECTS, Dialect, TcpStyle, dialect};
+pub use format::{number, push_number};
+pub use program::{AxisInfo, Block, Header, Mode, Options, Prediction, Program, Tool, Word, build};
+pub use render::{TEMPLATES, builtin_template, render};
+
+/// Why a program cannot be written.
+#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+pub enum EmitError {
+    /// The dialect has no such mode.
+    #[error("the {dialect} dialect has no {mode} mode")]
+    #[diagnostic(code(emit::unsupported), help("choose another --mode or --dialect"))]
+    Unsupported {
+        /// The dialect.
+        dialect: &'static str,
+        /// The mode.
+        mode: &'static str,
+    },
+    /// The template does not compile or render.
+    #[error("template {name}: {message}")]
+    #[diagnostic(code(emit::template))]
+    Template {
+        /// The template.
+        name: String,
+        /// What went wrong, with the template line.
+        message: String,
+    },
+}

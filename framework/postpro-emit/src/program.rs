@@ -1,0 +1,683 @@
+//! The template context: the NC program as data, built from the tool path (the order of the CL
+//! file, its tools, spindle, coolant, texts) and the solved positions (axis values, decisions).
+//! `docs/templates.md` documents every field; templates see exactly these names.
+
+use postpro_cl::{Coolant, CutterComp, Delay, FeedPer, ItemKind, Motion, Spindle, SpindleUnit, TextKind, ToolPath};
+use postpro_kin::{Noted, Solved, Step, StepKind};
+use postpro_machine::model::{AxisKind, Machine};
+use serde::Serialize;
+
+use crate::EmitError;
+use crate::dialect::{Dialect, TcpStyle};
+use crate::format::push_number;
+
+/// How motion is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// Axis values with `G1` and the programmed feed.
+    G1,
+    /// Axis values with `G93` and F = 1/Δt on every block.
+    InverseTime,
+    /// Tool tip and tool vector in the part frame; the controller solves the kinematics.
+    Tcp,
+}
+
+impl Mode {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::G1 => "g1",
+            Mode::InverseTime => "inverse-time",
+            Mode::Tcp => "tcp",
+        }
+    }
+}
+
+/// What the emitter is asked for.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Output mode.
+    pub mode: Mode,
+    /// Program name (from the file name).
+    pub program_name: String,
+    /// The CL file, as the user named it.
+    pub source_name: String,
+    /// Number the blocks (`N10`, `N20`, …).
+    pub block_numbers: bool,
+}
+
+/// The whole template context.
+#[derive(Clone, Debug, Serialize)]
+pub struct Program {
+    /// Facts about the program.
+    pub header: Header,
+    /// Tools in order of first use.
+    pub tools: Vec<Tool>,
+    /// The blocks.
+    pub blocks: Vec<Block>,
+}
+
+/// Facts about the program for its header.
+#[derive(Clone, Debug, Serialize)]
+pub struct Header {
+    /// Program name.
+    pub name: String,
+    /// PARTNO, when the CL file has one.
+    pub part: Option<String>,
+    /// The CL file.
+    pub source: String,
+    /// The machine.
+    pub machine: String,
+    /// Its description.
+    pub machine_description: String,
+    /// The dialect.
+    pub dialect: Dialect,
+    /// The mode.
+    pub mode: Mode,
+    /// The generator and its version.
+    pub generator: String,
+    /// The axes in output order.
+    pub axes: Vec<AxisInfo>,
+    /// CL points solved.
+    pub cl_points: usize,
+    /// Points added by linearization.
+    pub linearized_points: usize,
+    /// Linearization tolerance (mm).
+    pub tolerance: f64,
+    /// Decisions of the IKT policy.
+    pub decisions: usize,
+    /// Inverse-time F words limited to the controller's maximum (blocks too short for their feed).
+    pub clamped_feeds: usize,
+    /// The prediction (cycle time, slowdowns): filled by the prediction stage, `none` until then.
+    pub prediction: Option<Prediction>,
+}
+
+/// The prediction summary a header may show.
+#[derive(Clone, Debug, Serialize)]
+pub struct Prediction {
+    /// Predicted cycle time (s).
+    pub cycle_time: f64,
+    /// Time lost to slowdowns (s).
+    pub time_lost: f64,
+}
+
+/// An axis of the machine.
+#[derive(Clone, Debug, Serialize)]
+pub struct AxisInfo {
+    /// Address letter.
+    pub letter: String,
+    /// `linear` or `rotary`.
+    pub kind: &'static str,
+}
+
+/// A tool.
+#[derive(Clone, Debug, Serialize)]
+pub struct Tool {
+    /// Number.
+    pub number: u32,
+    /// Name, if the CL file gives one.
+    pub name: Option<String>,
+    /// Diameter (mm), if known.
+    pub diameter: Option<f64>,
+    /// Corner radius (mm), if known.
+    pub corner_radius: Option<f64>,
+}
+
+/// One word: an address letter and its value.
+#[derive(Clone, Debug, Serialize)]
+pub struct Word {
+    /// The address (`X`, `A`, `A3`, `TX`).
+    pub letter: String,
+    /// The value (mm, degrees, or a vector component).
+    pub value: f64,
+    /// The value as the dialect writes it (`12.346`, `+12.346`).
+    pub text: String,
+}
+
+/// One block of the program. `kind` tells the template which one.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Block {
+    /// A comment line.
+    Comment {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The text, cleaned of characters the dialect cannot hold in a comment.
+        text: String,
+    },
+    /// Text passed to the program as is (`INSERT`).
+    Insert {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The text.
+        text: String,
+    },
+    /// Rapid traverse.
+    Rapid {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The axis words that change.
+        words: Vec<Word>,
+    },
+    /// Feed move.
+    Linear {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The axis words that change (or all, in inverse time).
+        words: Vec<Word>,
+        /// The F word's value as written, when it is written.
+        feed: Option<String>,
+        /// A note for the end of the line (a decision, a clamped F).
+        note: Option<String>,
+    },
+    /// The feed mode changes.
+    FeedMode {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// `per-minute`, `per-revolution` or `inverse-time`.
+        mode: &'static str,
+    },
+    /// Tool change.
+    ToolChange {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// Tool number.
+        number: u32,
+        /// Tool name.
+        name: Option<String>,
+        /// Length-offset register.
+        offset: u32,
+    },
+    /// Spindle on.
+    SpindleOn {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// Speed as written (rpm, or surface speed).
+        speed: String,
+        /// Clockwise.
+        clockwise: bool,
+        /// Constant surface speed.
+        surface_speed: bool,
+    },
+    /// Spindle off.
+    SpindleOff {
+        /// Block number, when numbering.
+        n: Option<u32>,
+    },
+    /// Coolant on (`flood`, `mist`, `through`, `air`, `on`).
+    CoolantOn {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// Which coolant.
+        coolant: &'static str,
+    },
+    /// Coolant off.
+    CoolantOff {
+        /// Block number, when numbering.
+        n: Option<u32>,
+    },
+    /// Dwell.
+    Dwell {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// Seconds, as written.
+        seconds: String,
+    },
+    /// Program stop.
+    Stop {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The operator message.
+        text: Option<String>,
+    },
+    /// Optional stop.
+    OptionalStop {
+        /// Block number, when numbering.
+        n: Option<u32>,
+    },
+    /// Tool-centre-point control on.
+    TcpOn {
+        /// Block number, when numbering.
+        n: Option<u32>,
+    },
+    /// Tool-centre-point control off.
+    TcpOff {
+        /// Block number, when numbering.
+        n: Option<u32>,
+    },
+}
+
+/// Builds the program.
+pub fn build(
+    path: &ToolPath,
+    solved: &Solved,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+) -> Result<Program, EmitError> {
+    if options.mode == Mode::Tcp && dialect.tcp == TcpStyle::None {
+        return Err(EmitError::Unsupported { dialect: dialect.name, mode: options.mode.name() });
+    }
+    if options.mode == Mode::InverseTime && dialect.inverse_time_range.is_none() {
+        return Err(EmitError::Unsupported { dialect: dialect.name, mode: options.mode.name() });
+    }
+    let mut b = Builder::new(machine, dialect, options);
+    b.unknown = path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
+    let mut k = 0; // next step
+    let decisions = &solved.decisions;
+    let mut d = 0; // next decision
+    for item in &path.items {
+        let motion = match &item.kind {
+            ItemKind::Move(m) => Some(m.motion),
+            ItemKind::Arc(a) => Some(a.motion),
+            ItemKind::Nurbs(n) => Some(n.motion),
+            _ => None,
+        };
+        match motion {
+            Some(motion) => {
+                // The steps of this item: every step up to its statement.
+                while k < solved.steps.len() && solved.steps[k].span.start <= item.span.start {
+                    while d < decisions.len() && decisions[d].step == k {
+                        b.decision(&decisions[d]);
+                        d += 1;
+                    }
+                    b.step(&solved.steps[k], motion)?;
+                    k += 1;
+                }
+            }
+            None => b.item(&item.kind),
+        }
+    }
+    while k < solved.steps.len() {
+        b.step(&solved.steps[k], Motion::Rapid)?;
+        k += 1;
+    }
+    Ok(b.finish(path, solved))
+}
+
+struct Builder<'a> {
+    machine: &'a Machine,
+    dialect: &'a Dialect,
+    options: &'a Options,
+    blocks: Vec<Block>,
+    tools: Vec<Tool>,
+    next_n: u32,
+    /// The axis texts last written, per axis.
+    written: Vec<Option<String>>,
+    last_feed: Option<String>,
+    feed_mode: &'static str,
+    last_tip: Option<nalgebra::Point3<f64>>,
+    previous: Option<postpro_kin::Joints>,
+    tcp_on: bool,
+    spindle_rpm: Option<f64>,
+    pending_shape: Option<(f64, f64)>,
+    clamped: usize,
+    /// Words the reader does not know: carried as comments.
+    unknown: std::collections::BTreeSet<String>,
+}
+
+impl<'a> Builder<'a> {
+    fn new(machine: &'a Machine, dialect: &'a Dialect, options: &'a Options) -> Self {
+        Builder {
+            machine,
+            dialect,
+            options,
+            blocks: Vec::new(),
+            tools: Vec::new(),
+            next_n: 10,
+            written: vec![None; machine.axes.len().max(6)],
+            last_feed: None,
+            feed_mode: "per-minute",
+            last_tip: None,
+            previous: None,
+            tcp_on: false,
+            spindle_rpm: None,
+            pending_shape: None,
+            clamped: 0,
+            unknown: std::collections::BTreeSet::new(),
+        }
+    }
+
+    fn n(&mut self) -> Option<u32> {
+        self.options.block_numbers.then(|| {
+            let n = self.next_n;
+            self.next_n += 10;
+            n
+        })
+    }
+
+    fn comment(&mut self, text: &str) {
+        let mut clean: String = text
+            .chars()
+            .map(|c| if self.dialect.comment_forbidden.contains(c) || c.is_control() { ' ' } else { c })
+            .collect();
+        let room = self
+            .dialect
+            .max_line
+            .saturating_sub(self.dialect.comment_open.len() + self.dialect.comment_close.len() + 8);
+        if clean.len() > room {
+            let cut = (0..=room).rev().find(|&i| clean.is_char_boundary(i)).unwrap_or(0);
+            clean.truncate(cut);
+        }
+        let n = self.n();
+        self.blocks.push(Block::Comment { n, text: clean.trim_end().to_string() });
+    }
+
+    fn decision(&mut self, noted: &Noted) {
+        self.comment(&format!("postpro: {}", noted.decision));
+    }
+
+    fn set_feed_mode(&mut self, mode: &'static str) {
+        if self.feed_mode != mode {
+            self.feed_mode = mode;
+            self.last_feed = None;
+            let n = self.n();
+            self.blocks.push(Block::FeedMode { n, mode });
+        }
+    }
+
+    /// The axis words of a step that differ from what was last written (all with `all`).
+    fn axis_words(&mut self, step: &Step, all: bool) -> Vec<Word> {
+        let mut words = Vec::with_capacity(self.machine.axes.len());
+        for (i, axis) in self.machine.axes.iter().enumerate() {
+            let value = match axis.kind {
+                AxisKind::Linear => step.joints[i],
+                AxisKind::Rotary => step.joints[i].to_degrees(),
+            };
+            let mut text = String::with_capacity(12);
+            push_number(&mut text, value, usize::from(axis.decimals), self.dialect.explicit_plus);
+            if all || self.written[i].as_deref() != Some(text.as_str()) {
+                self.written[i] = Some(text.clone());
+                words.push(Word { letter: axis.letter.clone(), value, text });
+            }
+        }
+        words
+    }
+
+    /// Tool tip and vector in the part frame (TCP mode).
+    fn tcp_words(&mut self, step: &Step) -> Vec<Word> {
+        let (i, j, k) = match self.dialect.tcp {
+            TcpStyle::Traori => ("A3", "B3", "C3"),
+            TcpStyle::G43_5 => ("I", "J", "K"),
+            _ => ("TX", "TY", "TZ"),
+        };
+        let p = step.pose.tip;
+        let a = step.pose.axis;
+        let entries = [("X", p.x, 4usize), ("Y", p.y, 4), ("Z", p.z, 4), (i, a.x, 7), (j, a.y, 7), (k, a.z, 7)];
+        let texts: Vec<String> = entries
+            .iter()
+            .map(|&(_, value, decimals)| {
+                let mut text = String::with_capacity(12);
+                push_number(&mut text, value, decimals, self.dialect.explicit_plus);
+                text
+            })
+            .collect();
+        // Positions are modal; the vector is written whole whenever it changes.
+        let vector_changed = (3..6).any(|s| self.written[s].as_deref() != Some(texts[s].as_str()));
+        let mut words = Vec::with_capacity(9);
+        for (slot, ((letter, value, _), text)) in entries.into_iter().zip(texts).enumerate() {
+            let changed = if slot < 3 { self.written[slot].as_deref() != Some(text.as_str()) } else { vector_changed };
+            if changed {
+                if slot >= 3 && self.dialect.tcp == TcpStyle::M128 && slot == 3 {
+                    // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D compensation).
+                    for (n, v) in [("NX", a.x), ("NY", a.y), ("NZ", a.z)] {
+                        let mut t = String::with_capacity(12);
+                        push_number(&mut t, v, 7, true);
+                        words.push(Word { letter: n.to_string(), value: v, text: t });
+                    }
+                }
+                self.written[slot] = Some(text.clone());
+                words.push(Word { letter: letter.to_string(), value, text });
+            }
+        }
+        words
+    }
+
+    fn step(&mut self, step: &Step, motion: Motion) -> Result<(), EmitError> {
+        // In TCP mode the controller interpolates in the part frame: no linearization points.
+        if self.options.mode == Mode::Tcp && step.kind == StepKind::Linearized {
+            return Ok(());
+        }
+        if self.options.mode == Mode::Tcp && !self.tcp_on {
+            self.tcp_on = true;
+            self.written.iter_mut().for_each(|w| *w = None);
+            let n = self.n();
+            self.blocks.push(Block::TcpOn { n });
+        }
+        let rapid =
+            step.rapid || matches!(step.kind, StepKind::Retract | StepKind::Reorient) || motion == Motion::Rapid;
+        let tip = step.pose.tip;
+        let length = self.last_tip.map_or(0.0, |t| (tip - t).norm());
+        self.last_tip = Some(tip);
+        let previous = self.previous.replace(step.joints).unwrap_or(step.joints);
+        let tcp = self.options.mode == Mode::Tcp;
+        if rapid {
+            let words = if tcp { self.tcp_words(step) } else { self.axis_words(step, false) };
+            if !words.is_empty() {
+                let n = self.n();
+                self.blocks.push(Block::Rapid { n, words });
+            }
+            return Ok(());
+        }
+        let feed = match motion {
+            Motion::Feed(f) => Some(f),
+            _ => None,
+        };
+        match (self.options.mode, feed) {
+            (Mode::InverseTime, Some(f)) if f.per == FeedPer::Minute && f.value > 0.0 => {
+                self.set_feed_mode("inverse-time");
+                let (lo, hi) = self.dialect.inverse_time_range.unwrap_or((0.001, 99_999.0));
+                // Δt = L / feed; F = 1/Δt. Too long a block is split so that F ≥ the minimum.
+                let f_inverse = if length > 0.0 { f.value / length } else { hi };
+                let pieces = if f_inverse < lo { (lo / f_inverse).ceil().min(1e6) as usize } else { 1 };
+                let (f_piece, note) = if f_inverse * pieces as f64 > hi {
+                    self.clamped += 1;
+                    (hi, Some(format!("F limited to {hi} (block of {length:.4} mm)")))
+                } else {
+                    (f_inverse * pieces as f64, None)
+                };
+                for p in 1..=pieces {
+                    let part = if pieces == 1 {
+                        *step
+                    } else {
+                        Step { joints: previous.lerp(&step.joints, p as f64 / pieces as f64), ..*step }
+                    };
+                    let words = self.axis_words(&part, true);
+                    let mut text = String::new();
+                    push_number(&mut text, f_piece, self.dialect.feed_decimals.max(3), false);
+                    let n = self.n();
+                    self.blocks.push(Block::Linear { n, words, feed: Some(text), note: note.clone() });
+                }
+            }
+            _ => {
+                let feed_text = match feed {
+                    Some(f) => {
+                        let (value, mode) = match f.per {
+                            FeedPer::Minute => (f.value, "per-minute"),
+                            FeedPer::Revolution => (f.value, "per-revolution"),
+                        };
+                        self.set_feed_mode(mode);
+                        let (lo, hi) = self.dialect.feed_range;
+                        let value = if mode == "per-minute" { value.clamp(lo, hi) } else { value };
+                        let mut text = String::new();
+                        push_number(&mut text, value, self.dialect.feed_decimals, false);
+                        (self.last_feed.as_deref() != Some(text.as_str())).then(|| {
+                            self.last_feed = Some(text.clone());
+                            text
+                        })
+                    }
+                    None => None,
+                };
+                let words = if tcp { self.tcp_words(step) } else { self.axis_words(step, false) };
+                if words.is_empty() && feed_text.is_none() {
+                    return Ok(());
+                }
+                let n = self.n();
+                self.blocks.push(Block::Linear { n, words, feed: feed_text, note: None });
+            }
+        }
+        Ok(())
+    }
+
+    fn item(&mut self, kind: &ItemKind) {
+        match kind {
+            ItemKind::ToolChange(t) => {
+                let (diameter, corner_radius) =
+                    self.pending_shape.take().map_or((None, None), |(d, r)| (Some(d), Some(r)));
+                if !self.tools.iter().any(|x| x.number == t.number) {
+                    self.tools.push(Tool { number: t.number, name: t.name.clone(), diameter, corner_radius });
+                }
+                if self.tcp_on {
+                    self.tcp_on = false;
+                    let n = self.n();
+                    self.blocks.push(Block::TcpOff { n });
+                }
+                let n = self.n();
+                self.blocks.push(Block::ToolChange {
+                    n,
+                    number: t.number,
+                    name: t.name.clone(),
+                    offset: t.adjust.unwrap_or(t.number),
+                });
+                // After a tool change every axis is written again.
+                self.written.iter_mut().for_each(|w| *w = None);
+                self.last_feed = None;
+            }
+            ItemKind::ToolShape(s) => self.pending_shape = Some((s.diameter, s.corner_radius)),
+            ItemKind::ToolSelect(_) => {}
+            ItemKind::Spindle(Spindle::On { speed, unit, clockwise }) => {
+                self.spindle_rpm = (*unit == SpindleUnit::Rpm).then_some(*speed);
+                let mut text = String::new();
+                push_number(&mut text, *speed, 0, false);
+                let n = self.n();
+                self.blocks.push(Block::SpindleOn {
+                    n,
+                    speed: text,
+                    clockwise: *clockwise,
+                    surface_speed: *unit == SpindleUnit::SurfaceSpeed,
+                });
+            }
+            ItemKind::Spindle(Spindle::Off) => {
+                let n = self.n();
+                self.blocks.push(Block::SpindleOff { n });
+            }
+            ItemKind::Coolant(c) => {
+                let n = self.n();
+                self.blocks.push(match c {
+                    Coolant::Off => Block::CoolantOff { n },
+                    Coolant::On => Block::CoolantOn { n, coolant: "on" },
+                    Coolant::Flood => Block::CoolantOn { n, coolant: "flood" },
+                    Coolant::Mist => Block::CoolantOn { n, coolant: "mist" },
+                    Coolant::Through => Block::CoolantOn { n, coolant: "through" },
+                    Coolant::Air => Block::CoolantOn { n, coolant: "air" },
+                });
+            }
+            ItemKind::CutterComp(c) => {
+                let side = match c {
+                    CutterComp::Left => "LEFT",
+                    CutterComp::Right => "RIGHT",
+                    CutterComp::On => "ON",
+                    CutterComp::Off => "OFF",
+                };
+                self.comment(&format!("CUTCOM/{side}: the CL points are tool-centre points; not applied"));
+            }
+            ItemKind::CycleOn(c) => {
+                let params: Vec<String> = c
+                    .params
+                    .iter()
+                    .map(|(k, v)| match k {
+                        Some(k) if v.is_nan() => k.clone(),
+                        Some(k) => format!("{k} {v}"),
+                        None => v.to_string(),
+                    })
+                    .collect();
+                self.comment(&format!("CYCLE/{} {}: hole positions follow as moves", c.kind, params.join(" ")));
+            }
+            ItemKind::CycleOff => self.comment("CYCLE/OFF"),
+            ItemKind::Delay(d) => {
+                let seconds = match *d {
+                    Delay::Seconds(s) => Some(s),
+                    Delay::Revolutions(r) => self.spindle_rpm.filter(|rpm| *rpm > 0.0).map(|rpm| r * 60.0 / rpm),
+                };
+                match seconds {
+                    Some(s) => {
+                        let mut text = String::new();
+                        push_number(&mut text, s, 3, false);
+                        let n = self.n();
+                        self.blocks.push(Block::Dwell { n, seconds: text });
+                    }
+                    None => self.comment("DELAY in revolutions without a spindle speed: not written"),
+                }
+            }
+            ItemKind::Stop(text) => {
+                let n = self.n();
+                self.blocks.push(Block::Stop { n, text: text.clone() });
+            }
+            ItemKind::OptionalStop => {
+                let n = self.n();
+                self.blocks.push(Block::OptionalStop { n });
+            }
+            ItemKind::Text(TextKind::Insert, text) => {
+                let n = self.n();
+                self.blocks.push(Block::Insert { n, text: text.clone() });
+            }
+            ItemKind::Text(TextKind::Partno, _) => {}
+            ItemKind::Text(_, text) => self.comment(text),
+            ItemKind::OperationStart(name) if !name.is_empty() => self.comment(&format!("operation: {name}")),
+            // Unknown words go to the program as comments; known passive ones (PAINT) do not.
+            ItemKind::Record(r) if self.unknown.contains(&r.word) => {
+                let args = if r.args.is_empty() { String::new() } else { format!("/{}", r.args) };
+                self.comment(&format!("CL {}{args}: unknown word, not interpreted", r.word));
+            }
+            ItemKind::Record(_) => {}
+            ItemKind::Move(_)
+            | ItemKind::Arc(_)
+            | ItemKind::Nurbs(_)
+            | ItemKind::Comment(_)
+            | ItemKind::OperationStart(_)
+            | ItemKind::OperationEnd
+            | ItemKind::Frame(_)
+            | ItemKind::Multax(_)
+            | ItemKind::End
+            | ItemKind::Fini => {}
+        }
+    }
+
+    fn finish(mut self, path: &ToolPath, solved: &Solved) -> Program {
+        if self.tcp_on {
+            let n = self.n();
+            self.blocks.push(Block::TcpOff { n });
+        }
+        if self.feed_mode != "per-minute" {
+            self.set_feed_mode("per-minute");
+        }
+        let cl_points = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
+        let header = Header {
+            name: self.options.program_name.clone(),
+            part: path.info.part_name.clone(),
+            source: self.options.source_name.clone(),
+            machine: self.machine.name.clone(),
+            machine_description: self.machine.description.clone(),
+            dialect: self.dialect.clone(),
+            mode: self.options.mode,
+            generator: format!("postpro {}", env!("CARGO_PKG_VERSION")),
+            axes: self
+                .machine
+                .axes
+                .iter()
+                .map(|a| AxisInfo {
+                    letter: a.letter.clone(),
+                    kind: if a.kind == AxisKind::Rotary { "rotary" } else { "linear" },
+                })
+                .collect(),
+            cl_points,
+            linearized_points: solved.inserted,
+            tolerance: self.machine.policy.linearization_tolerance,
+            decisions: solved.decisions.len(),
+            clamped_feeds: self.clamped,
+            prediction: None,
+        };
+        Program { header, tools: self.tools, blocks: self.blocks }
+    }
+}

@@ -1,0 +1,242 @@
+//! NC programs of the bundled examples and of real 5-axis CL files on the built-in machines, in
+//! every mode: pinned by insta (the head and tail of each program, its line count and a SHA-256
+//! of the whole), read back and checked through the forward kinematics, and inverse time checked
+//! block by block (F × Δt = 1).
+
+use std::path::PathBuf;
+
+use nalgebra::Point3;
+use postpro_cl::{ItemKind, Motion, Source, ToolPath, read};
+use postpro_emit::{Mode, Options, build, builtin_template, dialect, render};
+use postpro_kin::{Joints, solve, solver_for};
+use postpro_machine::Registry;
+use postpro_machine::model::{AxisKind, Machine};
+use sha2::{Digest, Sha256};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn machine(name: &str) -> Machine {
+    Registry::builtin().expect("built-ins").find(name).expect("machine").machine.clone()
+}
+
+fn source(relative: &str) -> Source {
+    let path = repo().join(relative);
+    let bytes = std::fs::read(&path)
+        .unwrap_or_else(|e| panic!("{}: {e} (../shared must sit beside the repository)", path.display()));
+    Source::from_bytes(relative, bytes)
+}
+
+/// The program text of a CL file on a machine in a mode and dialect.
+fn program(relative: &str, machine_name: &str, mode: Mode, dialect_name: Option<&str>) -> String {
+    let src = source(relative);
+    let path = read(&src);
+    assert!(!path.has_errors(), "{relative} reads");
+    let m = machine(machine_name);
+    let kin = solver_for(&m);
+    let solved = solve(kin.as_ref(), &path, &m.policy).unwrap_or_else(|e| panic!("{relative} on {machine_name}: {e}"));
+    let d = dialect(dialect_name.unwrap_or(&m.dialect)).expect("dialect");
+    let options = Options { mode, program_name: "TEST".into(), source_name: relative.into(), block_numbers: false };
+    let p = build(&path, &solved, &m, d, &options).expect("builds");
+    render(&p, d.name, builtin_template(d.name).expect("template")).expect("renders")
+}
+
+/// The head and the tail of a program, its size and its hash: small, yet any change shows.
+fn digest(text: &str) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    let hash = Sha256::digest(text.as_bytes()).iter().map(|b| format!("{b:02x}")).collect::<String>();
+    let head = lines.iter().take(40).copied().collect::<Vec<_>>().join("\n");
+    let tail = lines.iter().skip(lines.len().saturating_sub(8).max(40)).copied().collect::<Vec<_>>().join("\n");
+    format!("lines: {}\nsha256: {hash}\n--- head ---\n{head}\n--- tail ---\n{tail}\n", lines.len())
+}
+
+const EXAMPLES: [&str; 2] = ["examples/cl/hypar-5axis.cl", "examples/cl/bicubic-5axis.cl"];
+const REAL: [&str; 2] = [
+    "../shared/data/cl/userFour__MECH491-postprocessor__APT_code.txt",
+    "../shared/data/cl/userFour__MECH491-postprocessor__APT_Project2.txt",
+];
+
+#[test]
+fn every_built_in_machine_in_every_mode_on_the_examples() {
+    for machine_name in ["mikron-ucp710", "maho600e"] {
+        for (mode, label) in [(Mode::G1, "g1"), (Mode::InverseTime, "inverse-time"), (Mode::Tcp, "tcp")] {
+            for example in EXAMPLES {
+                let stem = example.rsplit('/').next().unwrap_or(example).trim_end_matches(".cl");
+                let text = program(example, machine_name, mode, None);
+                insta::assert_snapshot!(format!("{stem}__{machine_name}__{label}"), digest(&text));
+            }
+        }
+    }
+}
+
+#[test]
+fn real_five_axis_files_on_the_built_ins() {
+    for machine_name in ["mikron-ucp710", "maho600e"] {
+        for file in REAL {
+            let stem = file.rsplit("__").next().unwrap_or(file).trim_end_matches(".txt");
+            let text = program(file, machine_name, Mode::G1, None);
+            insta::assert_snapshot!(format!("real_{stem}__{machine_name}"), digest(&text));
+        }
+    }
+}
+
+#[test]
+fn every_dialect_writes_the_example() {
+    for d in ["siemens-840d", "fanuc", "heidenhain", "linuxcnc"] {
+        let text = program(EXAMPLES[0], "mikron-ucp710", Mode::G1, Some(d));
+        insta::assert_snapshot!(format!("dialect_{d}"), digest(&text));
+    }
+}
+
+/// A program read back: the axis values after each G0/G1 block, with the G93 state and F.
+struct Block {
+    joints: Vec<f64>,
+    feed_move: bool,
+    inverse_time: bool,
+    f: Option<f64>,
+}
+
+fn read_back(text: &str, machine: &Machine) -> Vec<Block> {
+    let mut values: Vec<Option<f64>> = vec![None; machine.axes.len()];
+    let mut inverse_time = false;
+    let mut out = Vec::new();
+    for line in text.lines() {
+        let code = line.split(['(', ';']).next().unwrap_or("");
+        let mut motion = None;
+        let mut f = None;
+        for token in code.split_whitespace() {
+            let (letter, number) = token.split_at(1);
+            let Ok(v) = number.parse::<f64>() else { continue };
+            match letter {
+                "G" if v == 0.0 || v == 1.0 => motion = Some(v == 1.0),
+                "G" if v == 93.0 => inverse_time = true,
+                "G" if v == 94.0 => inverse_time = false,
+                "F" => f = Some(v),
+                l => {
+                    if let Some(i) = machine.axis_index(l) {
+                        values[i] = Some(if machine.axes[i].kind == AxisKind::Rotary { v.to_radians() } else { v });
+                    }
+                }
+            }
+        }
+        if let Some(feed_move) = motion {
+            let joints = values.iter().map(|v| v.unwrap_or(0.0)).collect();
+            out.push(Block { joints, feed_move, inverse_time, f });
+        }
+    }
+    out
+}
+
+/// The CL points with the feed they are reached at.
+fn cl_points(path: &ToolPath) -> Vec<(Point3<f64>, Option<f64>)> {
+    path.items
+        .iter()
+        .filter_map(|i| match &i.kind {
+            ItemKind::Move(m) => Some((m.to, if let Motion::Feed(f) = m.motion { Some(f.value) } else { None })),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The independent check: the emitted program, read back through the forward kinematics, passes
+/// through every CL point in order (within the rounding of the written decimals), and its other
+/// points (linearization) lie between them.
+#[test]
+fn the_program_read_back_passes_through_every_cl_point() {
+    for machine_name in ["mikron-ucp710", "maho600e"] {
+        let m = machine(machine_name);
+        let kin = solver_for(&m);
+        let src = source(EXAMPLES[0]);
+        let path = read(&src);
+        let text = program(EXAMPLES[0], machine_name, Mode::G1, Some("linuxcnc"));
+        let blocks = read_back(&text, &m);
+        let targets = cl_points(&path);
+        let mut next = 0;
+        for b in &blocks {
+            let tip = kin.forward(&Joints::from_slice(&b.joints)).tip;
+            if next < targets.len() && (tip - targets[next].0).norm() < 0.01 {
+                next += 1;
+            }
+        }
+        assert_eq!(next, targets.len(), "{machine_name}: only {next} of {} CL points found in order", targets.len());
+    }
+}
+
+/// Inverse time: G93 is active on every feed block, and F × Δt = 1 with Δt the part-space length
+/// of the block (from the forward kinematics of the written axis values) over the CL feed.
+#[test]
+fn inverse_time_f_times_delta_t_is_one() {
+    for machine_name in ["mikron-ucp710", "maho600e"] {
+        let m = machine(machine_name);
+        let kin = solver_for(&m);
+        let path = read(&source(EXAMPLES[0]));
+        let targets = cl_points(&path);
+        let text = program(EXAMPLES[0], machine_name, Mode::InverseTime, Some("linuxcnc"));
+        assert!(text.contains("G94"), "G94 restored after the program");
+        let blocks = read_back(&text, &m);
+        let mut next = 0;
+        let mut previous: Option<Point3<f64>> = None;
+        let mut checked = 0;
+        for b in &blocks {
+            let tip = kin.forward(&Joints::from_slice(&b.joints)).tip;
+            // The CL move this block belongs to: the next CL point not yet reached.
+            let feed = targets.get(next).and_then(|t| t.1);
+            if b.feed_move {
+                assert!(b.inverse_time, "{machine_name}: a feed block outside G93");
+                let f = b.f.unwrap_or_else(|| panic!("{machine_name}: a G93 block without F"));
+                let (Some(prev), Some(feed)) = (previous, feed) else {
+                    panic!("{machine_name}: a feed block without a feed")
+                };
+                let length = (tip - prev).norm();
+                if length > 0.01 {
+                    let dt = length / feed;
+                    // The written decimals (1 µm, 1e-4°) make the length read back uncertain by
+                    // about 3 µm: the tolerance grows for short blocks.
+                    let tolerance = 2e-3 + 3e-3 / length;
+                    if f >= 99_999.0 {
+                        // Limited to the controller's maximum F (noted in the program): slower.
+                        assert!(f * dt < 1.0 + tolerance);
+                    } else {
+                        let product = f * dt;
+                        assert!(
+                            (product - 1.0).abs() < tolerance,
+                            "{machine_name}: F {f} × Δt {dt} = {product} ({length} mm)"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+            if next < targets.len() && (tip - targets[next].0).norm() < 0.01 {
+                next += 1;
+            }
+            previous = Some(tip);
+        }
+        assert!(text.contains("F limited to 99999"), "{machine_name}: the clamped blocks are noted");
+        assert!(checked > 1000, "{machine_name}: only {checked} blocks checked");
+    }
+}
+
+#[test]
+fn the_manta_is_larger_than_both_built_ins() {
+    let path = read(&source("examples/cl/manta-5axis.cl"));
+    for machine_name in ["mikron-ucp710", "maho600e"] {
+        let m = machine(machine_name);
+        let err = solve(solver_for(&m).as_ref(), &path, &m.policy).expect_err("600 mm part");
+        assert!(err.to_string().contains("no solution within the travel"), "{err}");
+    }
+}
+
+#[test]
+fn unsupported_modes_are_errors() {
+    let src = source(EXAMPLES[0]);
+    let path = read(&src);
+    let m = machine("mikron");
+    let solved = solve(solver_for(&m).as_ref(), &path, &m.policy).expect("solves");
+    let options = Options { mode: Mode::Tcp, program_name: "T".into(), source_name: "t".into(), block_numbers: false };
+    let err = build(&path, &solved, &m, dialect("linuxcnc").expect("dialect"), &options).expect_err("no TCP");
+    assert_eq!(err.to_string(), "the linuxcnc dialect has no tcp mode");
+    let options = Options { mode: Mode::InverseTime, ..options };
+    let err = build(&path, &solved, &m, dialect("heidenhain").expect("dialect"), &options).expect_err("no G93");
+    assert_eq!(err.to_string(), "the heidenhain dialect has no inverse-time mode");
+}

@@ -1,0 +1,204 @@
+//! The main job: `postpro --machine NAME FILE.cl [-o OUT]` reads the CL file, solves the
+//! inverse kinematics and writes the NC program in the machine's dialect, atomically (a
+//! temporary file renamed over the target: an error never leaves a partial program, nor
+//! clobbers an existing one).
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use postpro_cl::Source;
+use postpro_emit::{Mode, Options, build, builtin_template, dialect, render};
+use postpro_kin::{solve, solver_for};
+
+use crate::report;
+use crate::solve::{IktArgs, MachineArgs};
+
+/// CL files above this size get a progress indicator on a terminal.
+const PROGRESS_BYTES: usize = 4 << 20;
+
+/// Arguments of the main job.
+#[derive(Debug, clap::Args)]
+pub(crate) struct EmitArgs {
+    /// The CL file.
+    #[arg(value_name = "FILE.cl")]
+    file: Option<PathBuf>,
+    #[command(flatten)]
+    machine: Option<MachineArgs>,
+    #[command(flatten)]
+    ikt: IktArgs,
+    /// Output file; `-` for standard output. Default: next to the input, with the dialect's
+    /// extension (`part.cl` → `part.mpf`).
+    #[arg(long, short = 'o', value_name = "OUT")]
+    output: Option<PathBuf>,
+    /// How motion is written: `g1` (axis values, programmed feed), `inverse-time` (G93, F = 1/Δt
+    /// on every block) or `tcp` (tool tip and vector; the controller solves the kinematics).
+    #[arg(long, value_enum, default_value_t = ModeArg::G1)]
+    mode: ModeArg,
+    /// The controller dialect (default: the machine's): siemens-840d, fanuc, heidenhain, linuxcnc.
+    #[arg(long, value_name = "NAME")]
+    dialect: Option<String>,
+    /// A minijinja template to use instead of the dialect's (docs/templates.md has the context).
+    #[arg(long, value_name = "FILE")]
+    template: Option<PathBuf>,
+    /// Number the blocks (N10, N20, …).
+    #[arg(long)]
+    block_numbers: bool,
+}
+
+/// `--mode`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ModeArg {
+    G1,
+    InverseTime,
+    Tcp,
+}
+
+impl EmitArgs {
+    /// True when the main job was asked for (a file or a machine on the command line).
+    pub(crate) fn given(&self) -> bool {
+        self.file.is_some() || self.machine.is_some()
+    }
+}
+
+fn fail(message: &str, code: u8) -> ExitCode {
+    eprint!("{message}");
+    ExitCode::from(code)
+}
+
+pub(crate) fn run(args: &EmitArgs) -> ExitCode {
+    let (Some(file), Some(machine_args)) = (&args.file, &args.machine) else {
+        return fail("error: the main job needs a CL file and --machine NAME (see postpro --help)\n", 2);
+    };
+    let mut machine = match machine_args.load() {
+        Ok(m) => m,
+        Err(code) => return code,
+    };
+    if let Err(message) = args.ikt.apply(&mut machine) {
+        return fail(&format!("error: {message}\n"), 2);
+    }
+    let dialect_name = args.dialect.clone().unwrap_or_else(|| machine.dialect.clone());
+    let Some(dialect) = dialect(&dialect_name) else {
+        let known: Vec<&str> = postpro_emit::DIALECTS.iter().map(|d| d.name).collect();
+        return fail(&format!("error: unknown dialect `{dialect_name}`; known: {}\n", known.join(", ")), 2);
+    };
+    let template = match &args.template {
+        Some(path) => match std::fs::read_to_string(path) {
+            Ok(t) => (path.display().to_string(), t),
+            Err(e) => return fail(&format!("error: cannot read the template {}: {e}\n", path.display()), 1),
+        },
+        None => (format!("{}.j2", dialect.name), builtin_template(dialect.name).unwrap_or_default().to_string()),
+    };
+    let output = match &args.output {
+        Some(o) => o.clone(),
+        None => file.with_extension(dialect.extension),
+    };
+    if output != Path::new("-") && same_file(&output, file) {
+        return fail(
+            &format!("error: the output {} is the CL file itself: choose another with -o\n", output.display()),
+            2,
+        );
+    }
+
+    let source = match Source::from_path(file) {
+        Ok(s) => s,
+        Err(e) => return fail(&format!("error: {e}\n"), 1),
+    };
+    let progress = (std::io::stderr().is_terminal() && source.text().len() > PROGRESS_BYTES).then(|| {
+        let bar = ProgressBar::new_spinner();
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        bar
+    });
+    let stage = |msg: &str| {
+        if let Some(bar) = &progress {
+            bar.set_message(msg.to_string());
+        }
+    };
+    stage("reading");
+    let path = postpro_cl::read(&source);
+    if path.has_errors() {
+        if let Some(bar) = &progress {
+            bar.finish_and_clear();
+        }
+        for d in path.diagnostics.iter().filter(|d| d.is_error()) {
+            eprint!("{}", d.render(&source));
+        }
+        return fail(&format!("error: {} does not read; nothing written\n", source.name()), 1);
+    }
+    stage("solving the kinematics");
+    let kin = solver_for(&machine);
+    let solved = match solve(kin.as_ref(), &path, &machine.policy) {
+        Ok(s) => s,
+        Err(e) => {
+            if let Some(bar) = &progress {
+                bar.finish_and_clear();
+            }
+            return fail(&report::render_with_source(e, source.name(), source.text()), 1);
+        }
+    };
+    stage("writing the program");
+    let mode = match args.mode {
+        ModeArg::G1 => Mode::G1,
+        ModeArg::InverseTime => Mode::InverseTime,
+        ModeArg::Tcp => Mode::Tcp,
+    };
+    let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
+    let options =
+        Options { mode, program_name, source_name: source.name().to_string(), block_numbers: args.block_numbers };
+    let text = build(&path, &solved, &machine, dialect, &options)
+        .and_then(|program| render(&program, &template.0, &template.1));
+    if let Some(bar) = &progress {
+        bar.finish_and_clear();
+    }
+    let text = match text {
+        Ok(t) => t,
+        Err(e) => return fail(&report::render(&e), 1),
+    };
+    let written = if output == Path::new("-") {
+        std::io::stdout().lock().write_all(text.as_bytes())
+    } else {
+        write_atomically(&output, text.as_bytes())
+    };
+    if let Err(e) = written {
+        return fail(&format!("error: cannot write {}: {e}\n", output.display()), 1);
+    }
+    if output != Path::new("-") {
+        let lines = text.lines().count();
+        eprintln!(
+            "wrote {}: {lines} lines for {} ({} CL points, {} added by linearization, {} IKT decisions)",
+            output.display(),
+            machine.name,
+            solved.steps.len() - solved.inserted,
+            solved.inserted,
+            solved.decisions.len()
+        );
+    }
+    ExitCode::SUCCESS
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    }
+}
+
+/// Writes `bytes` to a temporary file beside `path`, then renames it over `path`: readers see
+/// the old file or the whole new one, never a part.
+fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map_or_else(|| "program".into(), |n| n.to_string_lossy().into_owned());
+    let temp = dir.join(format!(".{name}.postpro-{}.tmp", std::process::id()));
+    let result = std::fs::File::create(&temp)
+        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
+        .and_then(|()| std::fs::rename(&temp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temp);
+    }
+    result
+}

@@ -1,0 +1,111 @@
+//! The main job, `postpro --machine NAME FILE.cl [-o OUT]`: where the program goes, what it
+//! starts with, and the error cases (unknown machine, unreachable pose, unwritable output),
+//! which never leave a partial program nor clobber an existing one.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn postpro(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_postpro")).args(args).current_dir(dir).output().expect("postpro runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8(bytes.to_vec()).expect("UTF-8")
+}
+
+/// A scratch folder with a copy of a CL file of the repository.
+fn scratch(name: &str, cl: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("postpro-emit-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    std::fs::copy(repo().join(cl), dir.join(Path::new(cl).file_name().expect("file name"))).expect("copy");
+    dir
+}
+
+fn leftovers(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .expect("list")
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .filter(|n| n.contains(".tmp"))
+        .collect()
+}
+
+#[test]
+fn the_program_goes_next_to_the_cl_file_with_the_dialect_extension() {
+    let dir = scratch("default", "examples/cl/hypar-5axis.cl");
+    let o = postpro(&["--machine", "mikron", "hypar-5axis.cl"], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let program = std::fs::read_to_string(dir.join("hypar-5axis.mpf")).expect("hypar-5axis.mpf written");
+    assert!(program.starts_with("; HYPAR-5AXIS: hypar-5axis.cl on mikron-ucp710, mode g1\n"), "{}", &program[..200]);
+    assert!(program.ends_with("M30\n"));
+    assert!(text(&o.stderr).starts_with("wrote hypar-5axis.mpf: "), "{}", text(&o.stderr));
+    let o = postpro(&["-m", "maho", "hypar-5axis.cl", "--mode", "inverse-time"], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(std::fs::read_to_string(dir.join("hypar-5axis.nc")).expect("fanuc program").contains("G93"));
+    assert!(leftovers(&dir).is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn dash_writes_to_standard_output() {
+    let dir = scratch("stdout", "examples/cl/hypar-5axis.cl");
+    let o = postpro(&["-m", "mikron", "hypar-5axis.cl", "--dialect", "linuxcnc", "-o", "-", "--block-numbers"], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(out.starts_with("%\n"), "{}", &out[..100]);
+    assert!(out.contains("\nN10 "), "block numbers");
+    assert!(!dir.join("hypar-5axis.ngc").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_unknown_machine_suggests_the_nearest_names() {
+    let dir = scratch("unknown", "examples/cl/hypar-5axis.cl");
+    let o = postpro(&["-m", "mikorn", "hypar-5axis.cl"], &dir);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("mikron"), "{}", text(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_unreachable_pose_names_the_line_and_keeps_the_old_program() {
+    let dir = scratch("unreachable", "tests/kin/unreachable.cl");
+    std::fs::write(dir.join("unreachable.mpf"), "old program\n").expect("an existing program");
+    let o = postpro(&["-m", "mikron", "unreachable.cl"], &dir);
+    assert_eq!(o.status.code(), Some(1));
+    let err = text(&o.stderr);
+    assert!(err.contains("[unreachable.cl:6:1]") && err.contains("no solution within the travel"), "{err}");
+    assert_eq!(std::fs::read_to_string(dir.join("unreachable.mpf")).expect("kept"), "old program\n");
+    assert!(leftovers(&dir).is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_unwritable_output_is_an_error_without_a_partial_file() {
+    let dir = scratch("unwritable", "examples/cl/hypar-5axis.cl");
+    let o = postpro(&["-m", "mikron", "hypar-5axis.cl", "-o", "missing-folder/out.mpf"], &dir);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o.stderr).contains("cannot write missing-folder/out.mpf"), "{}", text(&o.stderr));
+    assert!(leftovers(&dir).is_empty());
+    let o = postpro(&["-m", "fanuc-has-no-such-machine", "hypar-5axis.cl", "--dialect", "nonsense"], &dir);
+    assert_eq!(o.status.code(), Some(2));
+    let o = postpro(&["-m", "mikron", "hypar-5axis.cl", "--dialect", "linuxcnc", "--mode", "tcp"], &dir);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o.stderr).contains("the linuxcnc dialect has no tcp mode"), "{}", text(&o.stderr));
+    assert!(!dir.join("hypar-5axis.ngc").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_output_never_overwrites_the_cl_file() {
+    let dir = scratch("same", "examples/cl/hypar-5axis.cl");
+    std::fs::rename(dir.join("hypar-5axis.cl"), dir.join("part.nc")).expect("rename");
+    let o = postpro(&["-m", "maho", "part.nc"], &dir);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(std::fs::read_to_string(dir.join("part.nc")).expect("kept").starts_with("$$ GENERATOR"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
