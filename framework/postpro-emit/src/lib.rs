@@ -18,8 +18,11 @@ mod render;
 
 pub use dialect::{DIALECTS, Dialect, TcpStyle, dialect};
 pub use format::{number, push_number};
-pub use program::{AxisInfo, Block, Header, Mode, Options, Prediction, Program, Tool, Word, build};
-pub use render::{TEMPLATES, builtin_template, render};
+pub use program::{
+    AxisInfo, Block, BlockSink, Header, Mode, Options, Prediction, Program, Tool, Word, build, build_blocks,
+    check_mode, header, tools,
+};
+pub use render::{TEMPLATES, builtin_template, render, write_program};
 
 /// Why a program cannot be written.
 #[derive(Debug, thiserror::Error, miette::Diagnostic)]
@@ -32,6 +35,13 @@ pub enum EmitError {
         dialect: &'static str,
         /// The mode.
         mode: &'static str,
+    },
+    /// The program could not be written.
+    #[error("cannot write the program: {message}")]
+    #[diagnostic(code(emit::io))]
+    Io {
+        /// The cause.
+        message: String,
     },
     /// The template does not compile or render.
     #[error("template {name}: {message}")]

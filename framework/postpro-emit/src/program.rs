@@ -87,8 +87,6 @@ pub struct Header {
     pub tolerance: f64,
     /// Decisions of the IKT policy.
     pub decisions: usize,
-    /// Inverse-time F words limited to the controller's maximum (blocks too short for their feed).
-    pub clamped_feeds: usize,
     /// The prediction (cycle time, slowdowns): filled by the prediction stage, `none` until then.
     pub prediction: Option<Prediction>,
 }
@@ -248,7 +246,31 @@ pub enum Block {
     },
 }
 
-/// Builds the program.
+/// Where the blocks go: a `Vec` for the whole context, or a writer that renders each block as
+/// it comes (the program is never held in memory).
+pub trait BlockSink {
+    /// Takes the next block.
+    fn block(&mut self, block: Block) -> Result<(), EmitError>;
+}
+
+impl BlockSink for Vec<Block> {
+    fn block(&mut self, block: Block) -> Result<(), EmitError> {
+        self.push(block);
+        Ok(())
+    }
+}
+
+/// Checks that the dialect has the mode.
+pub fn check_mode(dialect: &Dialect, mode: Mode) -> Result<(), EmitError> {
+    let supported = match mode {
+        Mode::G1 => true,
+        Mode::Tcp => dialect.tcp != TcpStyle::None,
+        Mode::InverseTime => dialect.inverse_time_range.is_some(),
+    };
+    if supported { Ok(()) } else { Err(EmitError::Unsupported { dialect: dialect.name, mode: mode.name() }) }
+}
+
+/// Builds the whole program (the template context).
 pub fn build(
     path: &ToolPath,
     solved: &Solved,
@@ -256,13 +278,71 @@ pub fn build(
     dialect: &Dialect,
     options: &Options,
 ) -> Result<Program, EmitError> {
-    if options.mode == Mode::Tcp && dialect.tcp == TcpStyle::None {
-        return Err(EmitError::Unsupported { dialect: dialect.name, mode: options.mode.name() });
+    let header = header(path, solved, machine, dialect, options);
+    let tools = tools(path);
+    let mut blocks = Vec::new();
+    build_blocks(path, solved, machine, dialect, options, &mut blocks)?;
+    Ok(Program { header, tools, blocks })
+}
+
+/// The header of the program.
+pub fn header(path: &ToolPath, solved: &Solved, machine: &Machine, dialect: &Dialect, options: &Options) -> Header {
+    let cl_points = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
+    Header {
+        name: options.program_name.clone(),
+        part: path.info.part_name.clone(),
+        source: options.source_name.clone(),
+        machine: machine.name.clone(),
+        machine_description: machine.description.clone(),
+        dialect: dialect.clone(),
+        mode: options.mode,
+        generator: format!("postpro {}", env!("CARGO_PKG_VERSION")),
+        axes: machine
+            .axes
+            .iter()
+            .map(|a| AxisInfo {
+                letter: a.letter.clone(),
+                kind: if a.kind == AxisKind::Rotary { "rotary" } else { "linear" },
+            })
+            .collect(),
+        cl_points,
+        linearized_points: solved.inserted,
+        tolerance: machine.policy.linearization_tolerance,
+        decisions: solved.decisions.len(),
+        prediction: None,
     }
-    if options.mode == Mode::InverseTime && dialect.inverse_time_range.is_none() {
-        return Err(EmitError::Unsupported { dialect: dialect.name, mode: options.mode.name() });
+}
+
+/// The tools of the program in order of first use, with the geometry given before each change.
+pub fn tools(path: &ToolPath) -> Vec<Tool> {
+    let mut tools: Vec<Tool> = Vec::new();
+    let mut shape = None;
+    for item in &path.items {
+        match &item.kind {
+            ItemKind::ToolShape(s) => shape = Some((s.diameter, s.corner_radius)),
+            ItemKind::ToolChange(t) => {
+                let (diameter, corner_radius) = shape.take().map_or((None, None), |(d, r)| (Some(d), Some(r)));
+                if !tools.iter().any(|x| x.number == t.number) {
+                    tools.push(Tool { number: t.number, name: t.name.clone(), diameter, corner_radius });
+                }
+            }
+            _ => {}
+        }
     }
-    let mut b = Builder::new(machine, dialect, options);
+    tools
+}
+
+/// The blocks of the program, in order, handed to `sink`.
+pub fn build_blocks(
+    path: &ToolPath,
+    solved: &Solved,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+    sink: &mut dyn BlockSink,
+) -> Result<(), EmitError> {
+    check_mode(dialect, options.mode)?;
+    let mut b = Builder::new(machine, dialect, options, sink);
     b.unknown = path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
     let mut k = 0; // next step
     let decisions = &solved.decisions;
@@ -293,15 +373,16 @@ pub fn build(
         b.step(&solved.steps[k], Motion::Rapid)?;
         k += 1;
     }
-    Ok(b.finish(path, solved))
+    b.finish()
 }
 
 struct Builder<'a> {
     machine: &'a Machine,
     dialect: &'a Dialect,
     options: &'a Options,
-    blocks: Vec<Block>,
-    tools: Vec<Tool>,
+    sink: &'a mut dyn BlockSink,
+    /// The first error of the sink (a failed write); later blocks are dropped.
+    failed: Option<EmitError>,
     next_n: u32,
     /// The axis texts last written, per axis.
     written: Vec<Option<String>>,
@@ -311,20 +392,19 @@ struct Builder<'a> {
     previous: Option<postpro_kin::Joints>,
     tcp_on: bool,
     spindle_rpm: Option<f64>,
-    pending_shape: Option<(f64, f64)>,
     clamped: usize,
     /// Words the reader does not know: carried as comments.
     unknown: std::collections::BTreeSet<String>,
 }
 
 impl<'a> Builder<'a> {
-    fn new(machine: &'a Machine, dialect: &'a Dialect, options: &'a Options) -> Self {
+    fn new(machine: &'a Machine, dialect: &'a Dialect, options: &'a Options, sink: &'a mut dyn BlockSink) -> Self {
         Builder {
             machine,
             dialect,
             options,
-            blocks: Vec::new(),
-            tools: Vec::new(),
+            sink,
+            failed: None,
             next_n: 10,
             written: vec![None; machine.axes.len().max(6)],
             last_feed: None,
@@ -333,9 +413,16 @@ impl<'a> Builder<'a> {
             previous: None,
             tcp_on: false,
             spindle_rpm: None,
-            pending_shape: None,
             clamped: 0,
             unknown: std::collections::BTreeSet::new(),
+        }
+    }
+
+    fn push(&mut self, block: Block) {
+        if self.failed.is_none()
+            && let Err(e) = self.sink.block(block)
+        {
+            self.failed = Some(e);
         }
     }
 
@@ -361,7 +448,7 @@ impl<'a> Builder<'a> {
             clean.truncate(cut);
         }
         let n = self.n();
-        self.blocks.push(Block::Comment { n, text: clean.trim_end().to_string() });
+        self.push(Block::Comment { n, text: clean.trim_end().to_string() });
     }
 
     fn decision(&mut self, noted: &Noted) {
@@ -373,7 +460,7 @@ impl<'a> Builder<'a> {
             self.feed_mode = mode;
             self.last_feed = None;
             let n = self.n();
-            self.blocks.push(Block::FeedMode { n, mode });
+            self.push(Block::FeedMode { n, mode });
         }
     }
 
@@ -443,7 +530,7 @@ impl<'a> Builder<'a> {
             self.tcp_on = true;
             self.written.iter_mut().for_each(|w| *w = None);
             let n = self.n();
-            self.blocks.push(Block::TcpOn { n });
+            self.push(Block::TcpOn { n });
         }
         let rapid =
             step.rapid || matches!(step.kind, StepKind::Retract | StepKind::Reorient) || motion == Motion::Rapid;
@@ -456,7 +543,7 @@ impl<'a> Builder<'a> {
             let words = if tcp { self.tcp_words(step) } else { self.axis_words(step, false) };
             if !words.is_empty() {
                 let n = self.n();
-                self.blocks.push(Block::Rapid { n, words });
+                self.push(Block::Rapid { n, words });
             }
             return Ok(());
         }
@@ -487,7 +574,7 @@ impl<'a> Builder<'a> {
                     let mut text = String::new();
                     push_number(&mut text, f_piece, self.dialect.feed_decimals.max(3), false);
                     let n = self.n();
-                    self.blocks.push(Block::Linear { n, words, feed: Some(text), note: note.clone() });
+                    self.push(Block::Linear { n, words, feed: Some(text), note: note.clone() });
                 }
             }
             _ => {
@@ -514,7 +601,7 @@ impl<'a> Builder<'a> {
                     return Ok(());
                 }
                 let n = self.n();
-                self.blocks.push(Block::Linear { n, words, feed: feed_text, note: None });
+                self.push(Block::Linear { n, words, feed: feed_text, note: None });
             }
         }
         Ok(())
@@ -523,18 +610,13 @@ impl<'a> Builder<'a> {
     fn item(&mut self, kind: &ItemKind) {
         match kind {
             ItemKind::ToolChange(t) => {
-                let (diameter, corner_radius) =
-                    self.pending_shape.take().map_or((None, None), |(d, r)| (Some(d), Some(r)));
-                if !self.tools.iter().any(|x| x.number == t.number) {
-                    self.tools.push(Tool { number: t.number, name: t.name.clone(), diameter, corner_radius });
-                }
                 if self.tcp_on {
                     self.tcp_on = false;
                     let n = self.n();
-                    self.blocks.push(Block::TcpOff { n });
+                    self.push(Block::TcpOff { n });
                 }
                 let n = self.n();
-                self.blocks.push(Block::ToolChange {
+                self.push(Block::ToolChange {
                     n,
                     number: t.number,
                     name: t.name.clone(),
@@ -544,14 +626,13 @@ impl<'a> Builder<'a> {
                 self.written.iter_mut().for_each(|w| *w = None);
                 self.last_feed = None;
             }
-            ItemKind::ToolShape(s) => self.pending_shape = Some((s.diameter, s.corner_radius)),
-            ItemKind::ToolSelect(_) => {}
+            ItemKind::ToolShape(_) | ItemKind::ToolSelect(_) => {}
             ItemKind::Spindle(Spindle::On { speed, unit, clockwise }) => {
                 self.spindle_rpm = (*unit == SpindleUnit::Rpm).then_some(*speed);
                 let mut text = String::new();
                 push_number(&mut text, *speed, 0, false);
                 let n = self.n();
-                self.blocks.push(Block::SpindleOn {
+                self.push(Block::SpindleOn {
                     n,
                     speed: text,
                     clockwise: *clockwise,
@@ -560,11 +641,11 @@ impl<'a> Builder<'a> {
             }
             ItemKind::Spindle(Spindle::Off) => {
                 let n = self.n();
-                self.blocks.push(Block::SpindleOff { n });
+                self.push(Block::SpindleOff { n });
             }
             ItemKind::Coolant(c) => {
                 let n = self.n();
-                self.blocks.push(match c {
+                self.push(match c {
                     Coolant::Off => Block::CoolantOff { n },
                     Coolant::On => Block::CoolantOn { n, coolant: "on" },
                     Coolant::Flood => Block::CoolantOn { n, coolant: "flood" },
@@ -605,22 +686,22 @@ impl<'a> Builder<'a> {
                         let mut text = String::new();
                         push_number(&mut text, s, 3, false);
                         let n = self.n();
-                        self.blocks.push(Block::Dwell { n, seconds: text });
+                        self.push(Block::Dwell { n, seconds: text });
                     }
                     None => self.comment("DELAY in revolutions without a spindle speed: not written"),
                 }
             }
             ItemKind::Stop(text) => {
                 let n = self.n();
-                self.blocks.push(Block::Stop { n, text: text.clone() });
+                self.push(Block::Stop { n, text: text.clone() });
             }
             ItemKind::OptionalStop => {
                 let n = self.n();
-                self.blocks.push(Block::OptionalStop { n });
+                self.push(Block::OptionalStop { n });
             }
             ItemKind::Text(TextKind::Insert, text) => {
                 let n = self.n();
-                self.blocks.push(Block::Insert { n, text: text.clone() });
+                self.push(Block::Insert { n, text: text.clone() });
             }
             ItemKind::Text(TextKind::Partno, _) => {}
             ItemKind::Text(_, text) => self.comment(text),
@@ -644,40 +725,17 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn finish(mut self, path: &ToolPath, solved: &Solved) -> Program {
+    fn finish(mut self) -> Result<(), EmitError> {
         if self.tcp_on {
             let n = self.n();
-            self.blocks.push(Block::TcpOff { n });
+            self.push(Block::TcpOff { n });
         }
         if self.feed_mode != "per-minute" {
             self.set_feed_mode("per-minute");
         }
-        let cl_points = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
-        let header = Header {
-            name: self.options.program_name.clone(),
-            part: path.info.part_name.clone(),
-            source: self.options.source_name.clone(),
-            machine: self.machine.name.clone(),
-            machine_description: self.machine.description.clone(),
-            dialect: self.dialect.clone(),
-            mode: self.options.mode,
-            generator: format!("postpro {}", env!("CARGO_PKG_VERSION")),
-            axes: self
-                .machine
-                .axes
-                .iter()
-                .map(|a| AxisInfo {
-                    letter: a.letter.clone(),
-                    kind: if a.kind == AxisKind::Rotary { "rotary" } else { "linear" },
-                })
-                .collect(),
-            cl_points,
-            linearized_points: solved.inserted,
-            tolerance: self.machine.policy.linearization_tolerance,
-            decisions: solved.decisions.len(),
-            clamped_feeds: self.clamped,
-            prediction: None,
-        };
-        Program { header, tools: self.tools, blocks: self.blocks }
+        match self.failed {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
     }
 }

@@ -1,10 +1,17 @@
 //! Rendering the program with the dialect's template (minijinja, strict undefined: a template
 //! that names a field the context lacks is an error, never an empty string).
 
-use minijinja::{Environment, UndefinedBehavior};
+use std::collections::HashMap;
+use std::io::Write;
+
+use minijinja::{Environment, UndefinedBehavior, Value};
+use postpro_cl::ToolPath;
+use postpro_kin::Solved;
+use postpro_machine::model::Machine;
 
 use crate::EmitError;
-use crate::program::Program;
+use crate::dialect::Dialect;
+use crate::program::{Block, BlockSink, Options, Program, Word, build, build_blocks, check_mode, header, tools};
 
 /// The built-in templates, by dialect name.
 pub const TEMPLATES: &[(&str, &str)] = &[
@@ -40,4 +47,231 @@ fn describe(e: &minijinja::Error) -> String {
         source = cause.source();
     }
     s
+}
+
+/// Writes the program to `out` block by block, never holding it in memory. The template must
+/// define the macros `program_start()`, `block(b)` and `program_end()` (the built-in ones do, except
+/// Heidenhain's, whose line numbers run across blocks); otherwise the whole program is built and
+/// rendered at once, with the same result.
+///
+/// Motion blocks are the bulk of a program, so each shape of them (kind, axis letters, feed,
+/// note, number) is rendered once with markers in place of the numbers; the markers cut the
+/// output into a skeleton that is then filled with each block's numbers. The first two blocks of
+/// each shape are also rendered in full and compared: a template that computes on the values
+/// (not only the formatted texts) is detected and always rendered in full.
+#[allow(clippy::too_many_arguments)]
+pub fn write_program(
+    path: &ToolPath,
+    solved: &Solved,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+    name: &str,
+    source: &str,
+    out: &mut dyn Write,
+) -> Result<(), EmitError> {
+    check_mode(dialect, options.mode)?;
+    let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
+    let mut env = Environment::new();
+    env.set_undefined_behavior(UndefinedBehavior::Strict);
+    env.set_keep_trailing_newline(true);
+    env.add_template(name, source).map_err(err)?;
+    let template = env.get_template(name).map_err(err)?;
+    let header = header(path, solved, machine, dialect, options);
+    let tools = tools(path);
+    let context = minijinja::context! {
+        header => Value::from_serialize(&header),
+        tools => Value::from_serialize(&tools),
+        blocks => Value::from(Vec::<Value>::new()),
+    };
+    // Rendering with no blocks yields the state whose macros are called below.
+    let captured = template.render_captured(&context).map_err(err)?;
+    let state = captured.state();
+    let streamable = ["program_start", "block", "program_end"].iter().all(|m| state.lookup(m).is_some());
+    if !streamable {
+        let program = build(path, solved, machine, dialect, options)?;
+        let text = render(&program, name, source)?;
+        return out.write_all(text.as_bytes()).map_err(io_error);
+    }
+    out.write_all(state.call_macro("program_start", &[]).map_err(err)?.as_bytes()).map_err(io_error)?;
+    let mut sink = Streaming { state, name, out, shapes: HashMap::new(), line: String::with_capacity(128) };
+    build_blocks(path, solved, machine, dialect, options, &mut sink)?;
+    out.write_all(state.call_macro("program_end", &[]).map_err(err)?.as_bytes()).map_err(io_error)
+}
+
+fn io_error(e: std::io::Error) -> EmitError {
+    EmitError::Io { message: e.to_string() }
+}
+
+/// A piece of a motion block's skeleton.
+#[derive(Clone, Debug, PartialEq)]
+enum Piece {
+    Text(String),
+    /// The block number.
+    Number,
+    /// The text of word `k`.
+    Word(usize),
+    Feed,
+    Note,
+}
+
+/// What is known about one shape of motion block.
+enum Shape {
+    /// Verified this many times so far (at most two), with its skeleton.
+    Skeleton(Vec<Piece>, u8),
+    /// Rendered in full every time.
+    Full,
+}
+
+struct Streaming<'s, 'env, 'o> {
+    state: &'s minijinja::State<'s, 'env>,
+    name: &'s str,
+    out: &'o mut dyn Write,
+    shapes: HashMap<String, Shape>,
+    line: String,
+}
+
+const MARK: char = '\u{1}';
+
+impl Streaming<'_, '_, '_> {
+    fn full(&self, block: &Block) -> Result<String, EmitError> {
+        self.state
+            .call_macro("block", &[Value::from_serialize(block)])
+            .map_err(|e| EmitError::Template { name: self.name.to_string(), message: describe(&e) })
+    }
+
+    /// The block rendered with markers in place of its number, word texts, feed and note.
+    fn skeleton(&self, block: &Block) -> Option<Vec<Piece>> {
+        let mut marked = block.clone();
+        let (n, words, feed, note) = motion_parts(&mut marked)?;
+        if n.is_some() {
+            *n = Some(MARKED_NUMBER);
+        }
+        for (k, w) in words.iter_mut().enumerate() {
+            w.text = format!("{MARK}W{k}{MARK}");
+        }
+        if let Some(f) = feed {
+            *f = format!("{MARK}F{MARK}");
+        }
+        if let Some(t) = note {
+            *t = format!("{MARK}N{MARK}");
+        }
+        let rendered = self.full(&marked).ok()?;
+        let rendered = rendered.replace(&MARKED_NUMBER.to_string(), &format!("{MARK}#{MARK}"));
+        let mut pieces = Vec::new();
+        let mut parts = rendered.split(MARK);
+        pieces.push(Piece::Text(parts.next()?.to_string()));
+        while let Some(marker) = parts.next() {
+            pieces.push(match marker {
+                "#" => Piece::Number,
+                "F" => Piece::Feed,
+                "N" => Piece::Note,
+                w => Piece::Word(w.strip_prefix('W')?.parse().ok()?),
+            });
+            pieces.push(Piece::Text(parts.next()?.to_string()));
+        }
+        Some(pieces)
+    }
+
+    fn fill(pieces: &[Piece], block: &Block, line: &mut String) -> bool {
+        let (n, words, feed, note) = match block {
+            Block::Rapid { n, words } => (n, words, &None, &None),
+            Block::Linear { n, words, feed, note } => (n, words, feed, note),
+            _ => return false,
+        };
+        line.clear();
+        for p in pieces {
+            match p {
+                Piece::Text(t) => line.push_str(t),
+                Piece::Number => match n {
+                    Some(n) => line.push_str(&n.to_string()),
+                    None => return false,
+                },
+                Piece::Word(k) => match words.get(*k) {
+                    Some(w) => line.push_str(&w.text),
+                    None => return false,
+                },
+                Piece::Feed => match feed {
+                    Some(f) => line.push_str(f),
+                    None => return false,
+                },
+                Piece::Note => match note {
+                    Some(t) => line.push_str(t),
+                    None => return false,
+                },
+            }
+        }
+        true
+    }
+}
+
+/// A block number no program reaches, to find where the template writes `n`.
+const MARKED_NUMBER: u32 = 3_987_654_321;
+
+/// The parts of a motion block that vary from block to block.
+#[allow(clippy::type_complexity)]
+fn motion_parts(
+    block: &mut Block,
+) -> Option<(&mut Option<u32>, &mut Vec<Word>, Option<&mut String>, Option<&mut String>)> {
+    match block {
+        Block::Rapid { n, words } => Some((n, words, None, None)),
+        Block::Linear { n, words, feed, note } => Some((n, words, feed.as_mut(), note.as_mut())),
+        _ => None,
+    }
+}
+
+/// The shape of a motion block: what its skeleton depends on.
+fn shape_key(block: &Block) -> Option<String> {
+    let (kind, n, words, feed, note) = match block {
+        Block::Rapid { n, words } => ('R', n, words, false, false),
+        Block::Linear { n, words, feed, note } => ('L', n, words, feed.is_some(), note.is_some()),
+        _ => return None,
+    };
+    let mut key = String::with_capacity(24);
+    key.push(kind);
+    key.push(if n.is_some() { 'n' } else { '-' });
+    key.push(if feed { 'f' } else { '-' });
+    key.push(if note { 't' } else { '-' });
+    for w in words {
+        key.push_str(&w.letter);
+        key.push(',');
+    }
+    Some(key)
+}
+
+impl BlockSink for Streaming<'_, '_, '_> {
+    fn block(&mut self, block: Block) -> Result<(), EmitError> {
+        let Some(key) = shape_key(&block) else {
+            let text = self.full(&block)?;
+            return write_line(self.out, &text);
+        };
+        if !self.shapes.contains_key(&key) {
+            let shape = self.skeleton(&block).map_or(Shape::Full, |s| Shape::Skeleton(s, 0));
+            self.shapes.insert(key.clone(), shape);
+        }
+        let mut line = std::mem::take(&mut self.line);
+        let result = match self.shapes.get(&key) {
+            Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line) => {
+                write_line(self.out, &line)
+            }
+            Some(Shape::Skeleton(pieces, checked)) => {
+                // Verify the skeleton against the full rendering; keep it only if they agree.
+                let full = self.full(&block)?;
+                let agrees = Self::fill(pieces, &block, &mut line) && line == full;
+                let next = if agrees { Shape::Skeleton(pieces.clone(), checked + 1) } else { Shape::Full };
+                self.shapes.insert(key, next);
+                write_line(self.out, &full)
+            }
+            _ => {
+                let text = self.full(&block)?;
+                write_line(self.out, &text)
+            }
+        };
+        self.line = line;
+        result
+    }
+}
+
+fn write_line(out: &mut dyn Write, text: &str) -> Result<(), EmitError> {
+    out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).map_err(io_error)
 }

@@ -240,3 +240,35 @@ fn unsupported_modes_are_errors() {
     let err = build(&path, &solved, &m, dialect("heidenhain").expect("dialect"), &options).expect_err("no G93");
     assert_eq!(err.to_string(), "the heidenhain dialect has no inverse-time mode");
 }
+
+/// Writing block by block (the CLI's way, with skeletons for the motion blocks) gives exactly
+/// the program the whole-context rendering gives, in every dialect and mode.
+#[test]
+fn streaming_equals_the_whole_rendering() {
+    let src = source(EXAMPLES[0]);
+    let path = read(&src);
+    for machine_name in ["mikron-ucp710", "maho600e"] {
+        let m = machine(machine_name);
+        let solved = solve(solver_for(&m).as_ref(), &path, &m.policy).expect("solves");
+        for d in postpro_emit::DIALECTS {
+            for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp] {
+                for block_numbers in [false, true] {
+                    let options =
+                        Options { mode, program_name: "TEST".into(), source_name: "t.cl".into(), block_numbers };
+                    let template = builtin_template(d.name).expect("template");
+                    let Ok(program) = build(&path, &solved, &m, d, &options) else { continue };
+                    let whole = render(&program, d.name, template).expect("renders");
+                    let mut streamed = Vec::new();
+                    postpro_emit::write_program(&path, &solved, &m, d, &options, d.name, template, &mut streamed)
+                        .expect("writes");
+                    assert!(
+                        whole == String::from_utf8(streamed).expect("UTF-8"),
+                        "{} {:?} {block_numbers}",
+                        d.name,
+                        mode
+                    );
+                }
+            }
+        }
+    }
+}

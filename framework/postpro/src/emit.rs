@@ -9,7 +9,7 @@ use std::process::ExitCode;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use postpro_cl::Source;
-use postpro_emit::{Mode, Options, build, builtin_template, dialect, render};
+use postpro_emit::{EmitError, Mode, Options, builtin_template, dialect, write_program};
 use postpro_kin::{solve, solver_for};
 
 use crate::report;
@@ -150,27 +150,28 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
     let options =
         Options { mode, program_name, source_name: source.name().to_string(), block_numbers: args.block_numbers };
-    let text = build(&path, &solved, &machine, dialect, &options)
-        .and_then(|program| render(&program, &template.0, &template.1));
+    let write =
+        |out: &mut dyn Write| write_program(&path, &solved, &machine, dialect, &options, &template.0, &template.1, out);
+    let written = if output == Path::new("-") {
+        let stdout = std::io::stdout();
+        let mut out = std::io::BufWriter::new(stdout.lock());
+        write(&mut out).and_then(|()| out.flush().map_err(|e| EmitError::Io { message: e.to_string() }))
+    } else {
+        write_atomically(&output, write)
+    };
     if let Some(bar) = &progress {
         bar.finish_and_clear();
     }
-    let text = match text {
-        Ok(t) => t,
-        Err(e) => return fail(&report::render(&e), 1),
-    };
-    let written = if output == Path::new("-") {
-        std::io::stdout().lock().write_all(text.as_bytes())
-    } else {
-        write_atomically(&output, text.as_bytes())
-    };
     if let Err(e) = written {
-        return fail(&format!("error: cannot write {}: {e}\n", output.display()), 1);
+        let message = match e {
+            EmitError::Io { message } => format!("error: cannot write {}: {message}\n", output.display()),
+            e => report::render(&e),
+        };
+        return fail(&message, 1);
     }
     if output != Path::new("-") {
-        let lines = text.lines().count();
         eprintln!(
-            "wrote {}: {lines} lines for {} ({} CL points, {} added by linearization, {} IKT decisions)",
+            "wrote {} for {} ({} CL points, {} added by linearization, {} IKT decisions)",
             output.display(),
             machine.name,
             solved.steps.len() - solved.inserted,
@@ -188,15 +189,20 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Writes `bytes` to a temporary file beside `path`, then renames it over `path`: readers see
-/// the old file or the whole new one, never a part.
-fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+/// Writes to a temporary file beside `path`, then renames it over `path`: readers see the old
+/// file or the whole new one, never a part; on an error the temporary file is removed.
+fn write_atomically(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<(), EmitError>) -> Result<(), EmitError> {
+    let io = |e: std::io::Error| EmitError::Io { message: e.to_string() };
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().map_or_else(|| "program".into(), |n| n.to_string_lossy().into_owned());
     let temp = dir.join(format!(".{name}.postpro-{}.tmp", std::process::id()));
-    let result = std::fs::File::create(&temp)
-        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
-        .and_then(|()| std::fs::rename(&temp, path));
+    let result = std::fs::File::create(&temp).map_err(io).and_then(|file| {
+        let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
+        write(&mut out)?;
+        let file = out.into_inner().map_err(|e| io(e.into_error()))?;
+        file.sync_all().map_err(io)?;
+        std::fs::rename(&temp, path).map_err(io)
+    });
     if result.is_err() {
         let _ = std::fs::remove_file(&temp);
     }
