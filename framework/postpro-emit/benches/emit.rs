@@ -1,5 +1,5 @@
 //! End-to-end throughput (CL points per second): read a generated 5-axis CL file, solve it on a
-//! machine, write the NC program (to a sink), in G1 and in inverse time.
+//! machine, write the NC program (to a sink), in G1, in inverse time and as BSPLINE.
 //! `cargo bench -p postpro-emit --bench emit` (size: `POSTPRO_BENCH_MB`, default 16).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -20,7 +20,7 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("end_to_end");
     group.throughput(Throughput::Elements(points as u64));
     group.sample_size(10);
-    for (mode, label) in [(Mode::G1, "g1"), (Mode::InverseTime, "inverse_time")] {
+    for (mode, label) in [(Mode::G1, "g1"), (Mode::InverseTime, "inverse_time"), (Mode::Bspline, "bspline")] {
         let options =
             Options { mode, program_name: "BENCH".into(), source_name: "big.cl".into(), block_numbers: false };
         group.bench_function(label, |b| {
@@ -29,7 +29,7 @@ fn bench(c: &mut Criterion) {
                 let kin = solver_for(&machine);
                 let solved = solve(kin.as_ref(), &path, &machine.policy).expect("solves");
                 let mut out = std::io::BufWriter::new(std::io::sink());
-                write_program(&path, &solved, &machine, d, &options, d.name, template, &mut out).expect("writes");
+                write_program(&path, &solved, kin.as_ref(), d, &options, d.name, template, &mut out).expect("writes");
                 solved.steps.len()
             })
         });

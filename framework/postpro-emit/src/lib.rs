@@ -9,8 +9,10 @@
 //!
 //! Modes: `g1` (axis values, programmed feed), `inverse-time` (G93, F = 1/Δt on every block,
 //! Δt = part-space length / feed, blocks split to respect the controller's minimum F),
-//! `tcp` (tool tip and vector; the controller solves the kinematics).
+//! `tcp` (tool tip and vector; the controller solves the kinematics), `bspline` (Siemens
+//! `BSPLINE SD=3` through the axis positions of each run of feed moves, within tolerance).
 
+pub mod bspline;
 mod dialect;
 mod format;
 mod program;

@@ -3,7 +3,7 @@
 //! `docs/templates.md` documents every field; templates see exactly these names.
 
 use postpro_cl::{Coolant, CutterComp, Delay, FeedPer, ItemKind, Motion, Spindle, SpindleUnit, TextKind, ToolPath};
-use postpro_kin::{Noted, Solved, Step, StepKind};
+use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind};
 use postpro_machine::model::{AxisKind, Machine};
 use serde::Serialize;
 
@@ -21,6 +21,9 @@ pub enum Mode {
     InverseTime,
     /// Tool tip and tool vector in the part frame; the controller solves the kinematics.
     Tcp,
+    /// Siemens `BSPLINE SD=3`: a cubic B-spline through the axis positions of each run of feed
+    /// moves, within the linearization tolerance.
+    Bspline,
 }
 
 impl Mode {
@@ -30,6 +33,7 @@ impl Mode {
             Mode::G1 => "g1",
             Mode::InverseTime => "inverse-time",
             Mode::Tcp => "tcp",
+            Mode::Bspline => "bspline",
         }
     }
 }
@@ -234,6 +238,29 @@ pub enum Block {
         /// Block number, when numbering.
         n: Option<u32>,
     },
+    /// B-spline interpolation starts (`BSPLINE SD=3 F…`).
+    BsplineOn {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// Degree.
+        degree: usize,
+        /// The F word's value as written.
+        feed: String,
+    },
+    /// A B-spline control point with its knot interval.
+    ControlPoint {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// Every axis word.
+        words: Vec<Word>,
+        /// The knot interval (`PL`) as written.
+        pl: String,
+    },
+    /// B-spline interpolation ends (back to `G1`).
+    BsplineOff {
+        /// Block number, when numbering.
+        n: Option<u32>,
+    },
     /// Tool-centre-point control on.
     TcpOn {
         /// Block number, when numbering.
@@ -266,6 +293,7 @@ pub fn check_mode(dialect: &Dialect, mode: Mode) -> Result<(), EmitError> {
         Mode::G1 => true,
         Mode::Tcp => dialect.tcp != TcpStyle::None,
         Mode::InverseTime => dialect.inverse_time_range.is_some(),
+        Mode::Bspline => dialect.bspline,
     };
     if supported { Ok(()) } else { Err(EmitError::Unsupported { dialect: dialect.name, mode: mode.name() }) }
 }
@@ -274,14 +302,15 @@ pub fn check_mode(dialect: &Dialect, mode: Mode) -> Result<(), EmitError> {
 pub fn build(
     path: &ToolPath,
     solved: &Solved,
-    machine: &Machine,
+    kin: &dyn Kinematics,
     dialect: &Dialect,
     options: &Options,
 ) -> Result<Program, EmitError> {
+    let machine = kin.machine();
     let header = header(path, solved, machine, dialect, options);
     let tools = tools(path);
     let mut blocks = Vec::new();
-    build_blocks(path, solved, machine, dialect, options, &mut blocks)?;
+    build_blocks(path, solved, kin, dialect, options, &mut blocks)?;
     Ok(Program { header, tools, blocks })
 }
 
@@ -336,13 +365,13 @@ pub fn tools(path: &ToolPath) -> Vec<Tool> {
 pub fn build_blocks(
     path: &ToolPath,
     solved: &Solved,
-    machine: &Machine,
+    kin: &dyn Kinematics,
     dialect: &Dialect,
     options: &Options,
     sink: &mut dyn BlockSink,
 ) -> Result<(), EmitError> {
     check_mode(dialect, options.mode)?;
-    let mut b = Builder::new(machine, dialect, options, sink);
+    let mut b = Builder::new(kin, dialect, options, sink);
     b.unknown = path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
     let mut k = 0; // next step
     let decisions = &solved.decisions;
@@ -377,6 +406,7 @@ pub fn build_blocks(
 }
 
 struct Builder<'a> {
+    kin: &'a dyn Kinematics,
     machine: &'a Machine,
     dialect: &'a Dialect,
     options: &'a Options,
@@ -393,20 +423,27 @@ struct Builder<'a> {
     tcp_on: bool,
     spindle_rpm: Option<f64>,
     clamped: usize,
+    /// BSPLINE mode: the feed moves waiting to be fitted, with their feed text.
+    run: Vec<(Step, Option<String>)>,
+    /// The position before the run (its start point).
+    run_start: Option<Step>,
+    /// The last step written or queued.
+    last_step: Option<Step>,
     /// Words the reader does not know: carried as comments.
     unknown: std::collections::BTreeSet<String>,
 }
 
 impl<'a> Builder<'a> {
-    fn new(machine: &'a Machine, dialect: &'a Dialect, options: &'a Options, sink: &'a mut dyn BlockSink) -> Self {
+    fn new(kin: &'a dyn Kinematics, dialect: &'a Dialect, options: &'a Options, sink: &'a mut dyn BlockSink) -> Self {
         Builder {
-            machine,
+            kin,
+            machine: kin.machine(),
             dialect,
             options,
             sink,
             failed: None,
             next_n: 10,
-            written: vec![None; machine.axes.len().max(6)],
+            written: vec![None; kin.machine().axes.len().max(6)],
             last_feed: None,
             feed_mode: "per-minute",
             last_tip: None,
@@ -414,6 +451,9 @@ impl<'a> Builder<'a> {
             tcp_on: false,
             spindle_rpm: None,
             clamped: 0,
+            run: Vec::new(),
+            run_start: None,
+            last_step: None,
             unknown: std::collections::BTreeSet::new(),
         }
     }
@@ -452,6 +492,7 @@ impl<'a> Builder<'a> {
     }
 
     fn decision(&mut self, noted: &Noted) {
+        self.flush_run();
         self.comment(&format!("postpro: {}", noted.decision));
     }
 
@@ -522,6 +563,38 @@ impl<'a> Builder<'a> {
     }
 
     fn step(&mut self, step: &Step, motion: Motion) -> Result<(), EmitError> {
+        if self.options.mode == Mode::Bspline {
+            let feed = match motion {
+                Motion::Feed(f)
+                    if f.per == FeedPer::Minute
+                        && !step.rapid
+                        && step.kind != StepKind::Retract
+                        && step.kind != StepKind::Reorient =>
+                {
+                    Some(f)
+                }
+                _ => None,
+            };
+            match feed {
+                // The spline goes through the CL points; it is checked against the tolerance itself.
+                Some(_) if step.kind == StepKind::Linearized => return Ok(()),
+                Some(f) => {
+                    let mut text = String::new();
+                    push_number(&mut text, f.value, self.dialect.feed_decimals, false);
+                    if self.run.last().is_some_and(|(_, t)| t.as_deref() != Some(text.as_str())) {
+                        self.flush_run();
+                    }
+                    if self.run.is_empty() {
+                        self.run_start = self.last_step;
+                    }
+                    self.run.push((*step, Some(text)));
+                    self.last_step = Some(*step);
+                    return Ok(());
+                }
+                None => self.flush_run(),
+            }
+        }
+        self.last_step = Some(*step);
         // In TCP mode the controller interpolates in the part frame: no linearization points.
         if self.options.mode == Mode::Tcp && step.kind == StepKind::Linearized {
             return Ok(());
@@ -608,6 +681,9 @@ impl<'a> Builder<'a> {
     }
 
     fn item(&mut self, kind: &ItemKind) {
+        if !matches!(kind, ItemKind::Comment(_) | ItemKind::Frame(_) | ItemKind::Multax(_) | ItemKind::ToolShape(_)) {
+            self.flush_run();
+        }
         match kind {
             ItemKind::ToolChange(t) => {
                 if self.tcp_on {
@@ -725,7 +801,53 @@ impl<'a> Builder<'a> {
         }
     }
 
+    /// Writes the queued run of feed moves as a B-spline, or as G1 moves when it is too short or
+    /// the spline cannot follow it within the tolerance.
+    fn flush_run(&mut self) {
+        if self.run.is_empty() {
+            return;
+        }
+        let run = std::mem::take(&mut self.run);
+        let start = self.run_start.take();
+        let fitted = start.and_then(|start| {
+            let joints: Vec<Joints> = std::iter::once(start.joints).chain(run.iter().map(|(s, _)| s.joints)).collect();
+            let poses: Vec<Pose> = std::iter::once(start.pose).chain(run.iter().map(|(s, _)| s.pose)).collect();
+            let tolerance = self.machine.policy.linearization_tolerance;
+            crate::bspline::fit(self.kin, &crate::bspline::Run { joints: &joints, poses: &poses }, tolerance)
+        });
+        let feed = run[0].1.clone().unwrap_or_default();
+        match fitted {
+            Some((spline, _)) => {
+                let n = self.n();
+                self.push(Block::BsplineOn { n, degree: crate::bspline::DEGREE, feed });
+                for (k, control) in spline.control.iter().enumerate().skip(1) {
+                    let step = Step { joints: *control, ..run[run.len() - 1].0 };
+                    let words = self.axis_words(&step, true);
+                    let mut pl = String::new();
+                    push_number(&mut pl, spline.pl(k), 4, false);
+                    let n = self.n();
+                    self.push(Block::ControlPoint { n, words, pl });
+                }
+                let n = self.n();
+                self.push(Block::BsplineOff { n });
+                self.last_feed = None;
+            }
+            None => {
+                for (step, feed) in &run {
+                    let words = self.axis_words(step, false);
+                    let feed = feed.clone().filter(|f| self.last_feed.as_deref() != Some(f.as_str()));
+                    if let Some(f) = &feed {
+                        self.last_feed = Some(f.clone());
+                    }
+                    let n = self.n();
+                    self.push(Block::Linear { n, words, feed, note: None });
+                }
+            }
+        }
+    }
+
     fn finish(mut self) -> Result<(), EmitError> {
+        self.flush_run();
         if self.tcp_on {
             let n = self.n();
             self.push(Block::TcpOff { n });

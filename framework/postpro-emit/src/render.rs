@@ -6,8 +6,7 @@ use std::io::Write;
 
 use minijinja::{Environment, UndefinedBehavior, Value};
 use postpro_cl::ToolPath;
-use postpro_kin::Solved;
-use postpro_machine::model::Machine;
+use postpro_kin::{Kinematics, Solved};
 
 use crate::EmitError;
 use crate::dialect::Dialect;
@@ -63,7 +62,7 @@ fn describe(e: &minijinja::Error) -> String {
 pub fn write_program(
     path: &ToolPath,
     solved: &Solved,
-    machine: &Machine,
+    kin: &dyn Kinematics,
     dialect: &Dialect,
     options: &Options,
     name: &str,
@@ -77,7 +76,7 @@ pub fn write_program(
     env.set_keep_trailing_newline(true);
     env.add_template(name, source).map_err(err)?;
     let template = env.get_template(name).map_err(err)?;
-    let header = header(path, solved, machine, dialect, options);
+    let header = header(path, solved, kin.machine(), dialect, options);
     let tools = tools(path);
     let context = minijinja::context! {
         header => Value::from_serialize(&header),
@@ -89,13 +88,13 @@ pub fn write_program(
     let state = captured.state();
     let streamable = ["program_start", "block", "program_end"].iter().all(|m| state.lookup(m).is_some());
     if !streamable {
-        let program = build(path, solved, machine, dialect, options)?;
+        let program = build(path, solved, kin, dialect, options)?;
         let text = render(&program, name, source)?;
         return out.write_all(text.as_bytes()).map_err(io_error);
     }
     out.write_all(state.call_macro("program_start", &[]).map_err(err)?.as_bytes()).map_err(io_error)?;
     let mut sink = Streaming { state, name, out, shapes: HashMap::new(), line: String::with_capacity(128) };
-    build_blocks(path, solved, machine, dialect, options, &mut sink)?;
+    build_blocks(path, solved, kin, dialect, options, &mut sink)?;
     out.write_all(state.call_macro("program_end", &[]).map_err(err)?.as_bytes()).map_err(io_error)
 }
 
@@ -174,9 +173,14 @@ impl Streaming<'_, '_, '_> {
     }
 
     fn fill(pieces: &[Piece], block: &Block, line: &mut String) -> bool {
+        let pl;
         let (n, words, feed, note) = match block {
             Block::Rapid { n, words } => (n, words, &None, &None),
             Block::Linear { n, words, feed, note } => (n, words, feed, note),
+            Block::ControlPoint { n, words, pl: p } => {
+                pl = Some(p.clone());
+                (n, words, &pl, &None)
+            }
             _ => return false,
         };
         line.clear();
@@ -216,6 +220,7 @@ fn motion_parts(
     match block {
         Block::Rapid { n, words } => Some((n, words, None, None)),
         Block::Linear { n, words, feed, note } => Some((n, words, feed.as_mut(), note.as_mut())),
+        Block::ControlPoint { n, words, pl } => Some((n, words, Some(pl), None)),
         _ => None,
     }
 }
@@ -225,6 +230,7 @@ fn shape_key(block: &Block) -> Option<String> {
     let (kind, n, words, feed, note) = match block {
         Block::Rapid { n, words } => ('R', n, words, false, false),
         Block::Linear { n, words, feed, note } => ('L', n, words, feed.is_some(), note.is_some()),
+        Block::ControlPoint { n, words, .. } => ('C', n, words, true, false),
         _ => return None,
     };
     let mut key = String::with_capacity(24);

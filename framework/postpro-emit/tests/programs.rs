@@ -38,7 +38,7 @@ fn program(relative: &str, machine_name: &str, mode: Mode, dialect_name: Option<
     let solved = solve(kin.as_ref(), &path, &m.policy).unwrap_or_else(|e| panic!("{relative} on {machine_name}: {e}"));
     let d = dialect(dialect_name.unwrap_or(&m.dialect)).expect("dialect");
     let options = Options { mode, program_name: "TEST".into(), source_name: relative.into(), block_numbers: false };
-    let p = build(&path, &solved, &m, d, &options).expect("builds");
+    let p = build(&path, &solved, kin.as_ref(), d, &options).expect("builds");
     render(&p, d.name, builtin_template(d.name).expect("template")).expect("renders")
 }
 
@@ -232,13 +232,19 @@ fn unsupported_modes_are_errors() {
     let src = source(EXAMPLES[0]);
     let path = read(&src);
     let m = machine("mikron");
-    let solved = solve(solver_for(&m).as_ref(), &path, &m.policy).expect("solves");
+    let kin = solver_for(&m);
+    let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let options = Options { mode: Mode::Tcp, program_name: "T".into(), source_name: "t".into(), block_numbers: false };
-    let err = build(&path, &solved, &m, dialect("linuxcnc").expect("dialect"), &options).expect_err("no TCP");
+    let err = build(&path, &solved, kin.as_ref(), dialect("linuxcnc").expect("dialect"), &options).expect_err("no TCP");
     assert_eq!(err.to_string(), "the linuxcnc dialect has no tcp mode");
     let options = Options { mode: Mode::InverseTime, ..options };
-    let err = build(&path, &solved, &m, dialect("heidenhain").expect("dialect"), &options).expect_err("no G93");
+    let err =
+        build(&path, &solved, kin.as_ref(), dialect("heidenhain").expect("dialect"), &options).expect_err("no G93");
     assert_eq!(err.to_string(), "the heidenhain dialect has no inverse-time mode");
+    let options = Options { mode: Mode::Bspline, ..options };
+    let err =
+        build(&path, &solved, kin.as_ref(), dialect("fanuc").expect("dialect"), &options).expect_err("no BSPLINE");
+    assert_eq!(err.to_string(), "the fanuc dialect has no bspline mode");
 }
 
 /// Writing block by block (the CLI's way, with skeletons for the motion blocks) gives exactly
@@ -249,18 +255,28 @@ fn streaming_equals_the_whole_rendering() {
     let path = read(&src);
     for machine_name in ["mikron-ucp710", "maho600e"] {
         let m = machine(machine_name);
-        let solved = solve(solver_for(&m).as_ref(), &path, &m.policy).expect("solves");
+        let kin = solver_for(&m);
+        let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
         for d in postpro_emit::DIALECTS {
-            for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp] {
+            for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp, Mode::Bspline] {
                 for block_numbers in [false, true] {
                     let options =
                         Options { mode, program_name: "TEST".into(), source_name: "t.cl".into(), block_numbers };
                     let template = builtin_template(d.name).expect("template");
-                    let Ok(program) = build(&path, &solved, &m, d, &options) else { continue };
+                    let Ok(program) = build(&path, &solved, kin.as_ref(), d, &options) else { continue };
                     let whole = render(&program, d.name, template).expect("renders");
                     let mut streamed = Vec::new();
-                    postpro_emit::write_program(&path, &solved, &m, d, &options, d.name, template, &mut streamed)
-                        .expect("writes");
+                    postpro_emit::write_program(
+                        &path,
+                        &solved,
+                        kin.as_ref(),
+                        d,
+                        &options,
+                        d.name,
+                        template,
+                        &mut streamed,
+                    )
+                    .expect("writes");
                     assert!(
                         whole == String::from_utf8(streamed).expect("UTF-8"),
                         "{} {:?} {block_numbers}",
@@ -268,6 +284,78 @@ fn streaming_equals_the_whole_rendering() {
                         mode
                     );
                 }
+            }
+        }
+    }
+}
+
+/// BSPLINE: every spline written, rebuilt from the program's control points and `PL` values and
+/// evaluated densely through the forward kinematics, keeps the tool tip within the tolerance of
+/// the programmed CL segments (plus the rounding of the written control points).
+#[test]
+fn bspline_stays_within_tolerance_of_the_cl_points() {
+    use postpro_emit::bspline::{DEGREE, Spline};
+    for example in EXAMPLES {
+        let m = machine("mikron-ucp710");
+        let kin = solver_for(&m);
+        let path = read(&source(example));
+        let cl: Vec<Point3<f64>> = cl_points(&path).into_iter().map(|(p, _)| p).collect();
+        let text = program(example, "mikron-ucp710", Mode::Bspline, None);
+        let mut values: Vec<f64> = vec![0.0; m.axes.len()];
+        let mut spline: Option<(Vec<Joints>, Vec<f64>)> = None;
+        let mut splines = Vec::new();
+        for line in text.lines() {
+            let code = line.split(';').next().unwrap_or("").trim();
+            if code.starts_with("BSPLINE") {
+                spline = Some((vec![Joints::from_slice(&values)], Vec::new()));
+                continue;
+            }
+            let mut pl = None;
+            for token in code.split_whitespace() {
+                if let Some(v) = token.strip_prefix("PL=") {
+                    pl = v.parse::<f64>().ok();
+                    continue;
+                }
+                let (letter, number) = token.split_at(1);
+                if let (Some(i), Ok(v)) = (m.axis_index(letter), number.parse::<f64>()) {
+                    values[i] = if m.axes[i].kind == AxisKind::Rotary { v.to_radians() } else { v };
+                }
+            }
+            match (&mut spline, pl) {
+                (Some((control, pls)), Some(pl)) => {
+                    control.push(Joints::from_slice(&values));
+                    pls.push(pl);
+                }
+                (Some(_), None) if code == "G1" => splines.extend(spline.take()),
+                _ => {}
+            }
+        }
+        assert!(splines.len() > 10, "{example}: {} splines", splines.len());
+        for (control, pls) in splines {
+            let spans = &pls[1..pls.len() - 1];
+            let total: f64 = spans.iter().sum();
+            let mut knots = vec![0.0; DEGREE + 1];
+            let mut t = 0.0;
+            for s in &spans[..spans.len() - 1] {
+                t += s;
+                knots.push(t);
+            }
+            knots.extend(std::iter::repeat_n(total, DEGREE + 1));
+            let spline = Spline { control, knots };
+            let polyline = |p: &Point3<f64>| {
+                cl.windows(2)
+                    .map(|w| {
+                        let ab = w[1] - w[0];
+                        let t = ((p - w[0]).dot(&ab) / ab.norm_squared().max(1e-12)).clamp(0.0, 1.0);
+                        (p - (w[0] + ab * t)).norm()
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            };
+            for k in 0..=200 {
+                let u = total * f64::from(k) / 200.0;
+                let tip = kin.forward(&spline.at(u)).tip;
+                let off = polyline(&tip);
+                assert!(off < m.policy.linearization_tolerance + 0.005, "{example}: {off} mm off at u = {u}/{total}");
             }
         }
     }

@@ -33,7 +33,8 @@ pub(crate) struct EmitArgs {
     #[arg(long, short = 'o', value_name = "OUT")]
     output: Option<PathBuf>,
     /// How motion is written: `g1` (axis values, programmed feed), `inverse-time` (G93, F = 1/Δt
-    /// on every block) or `tcp` (tool tip and vector; the controller solves the kinematics).
+    /// on every block), `bspline` (Siemens BSPLINE through the axis positions, within tolerance)
+    /// or `tcp` (tool tip and vector; the controller solves the kinematics).
     #[arg(long, value_enum, default_value_t = ModeArg::G1)]
     mode: ModeArg,
     /// The controller dialect (default: the machine's): siemens-840d, fanuc, heidenhain, linuxcnc.
@@ -52,6 +53,7 @@ pub(crate) struct EmitArgs {
 enum ModeArg {
     G1,
     InverseTime,
+    Bspline,
     Tcp,
 }
 
@@ -145,13 +147,15 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
     let mode = match args.mode {
         ModeArg::G1 => Mode::G1,
         ModeArg::InverseTime => Mode::InverseTime,
+        ModeArg::Bspline => Mode::Bspline,
         ModeArg::Tcp => Mode::Tcp,
     };
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
     let options =
         Options { mode, program_name, source_name: source.name().to_string(), block_numbers: args.block_numbers };
-    let write =
-        |out: &mut dyn Write| write_program(&path, &solved, &machine, dialect, &options, &template.0, &template.1, out);
+    let write = |out: &mut dyn Write| {
+        write_program(&path, &solved, kin.as_ref(), dialect, &options, &template.0, &template.1, out)
+    };
     let written = if output == Path::new("-") {
         let stdout = std::io::stdout();
         let mut out = std::io::BufWriter::new(stdout.lock());

@@ -1,0 +1,260 @@
+//! Siemens `BSPLINE` output: a clamped cubic B-spline through the joint positions of a run of
+//! feed moves (global interpolation, The NURBS Book §9.2.1: parameters by the part-space chord
+//! length of the tool tip, knots by averaging), whose control points and knot intervals the CNC
+//! takes as `X… Y… … PL=…` blocks after `BSPLINE SD=3`. Following paper 003's example, the first
+//! and the last block carry `PL=0` and each block in between the length of one knot span.
+//!
+//! The spline is checked against the programmed path: evaluated inside every span, through the
+//! forward kinematics, the tool tip must stay within the tolerance of the programmed segment;
+//! where it does not, the segment's midpoint is added to the data and the run is fitted again.
+
+use postpro_kin::{Joints, Kinematics, Pose, Solutions};
+
+/// Degree of the spline (`SD=3`).
+pub const DEGREE: usize = 3;
+
+/// A fitted spline: its control points (the first is the start point) and its knot spans.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spline {
+    /// Control points; `control[0]` is the start (the current position).
+    pub control: Vec<Joints>,
+    /// The full clamped knot vector.
+    pub knots: Vec<f64>,
+}
+
+impl Spline {
+    /// The `PL` of control point `k` (1-based, as written after the start point).
+    pub fn pl(&self, k: usize) -> f64 {
+        let m = self.control.len() - 1;
+        if k <= 1 || k >= m { 0.0 } else { self.knots[k + 2] - self.knots[k + 1] }
+    }
+
+    /// The parameter range.
+    pub fn domain(&self) -> (f64, f64) {
+        (self.knots[DEGREE], self.knots[self.control.len()])
+    }
+
+    /// The joint values at parameter `u` (de Boor).
+    pub fn at(&self, u: f64) -> Joints {
+        let n = self.control.len();
+        let (lo, hi) = self.domain();
+        let u = u.clamp(lo, hi);
+        let mut k = DEGREE;
+        while k + 1 < n && self.knots[k + 1] <= u {
+            k += 1;
+        }
+        let mut d: [Joints; DEGREE + 1] = std::array::from_fn(|j| self.control[j + k - DEGREE]);
+        for r in 1..=DEGREE {
+            for j in (r..=DEGREE).rev() {
+                let i = j + k - DEGREE;
+                let den = self.knots[i + DEGREE + 1 - r] - self.knots[i];
+                let a = if den > 0.0 { (u - self.knots[i]) / den } else { 0.0 };
+                let (prev, cur) = (d[j - 1], d[j]);
+                d[j] = prev.lerp(&cur, a);
+            }
+        }
+        d[DEGREE]
+    }
+}
+
+/// The clamped cubic through `points` at parameters `params` (strictly increasing), or `None`
+/// with fewer than four points.
+pub fn interpolate(points: &[Joints], params: &[f64]) -> Option<Spline> {
+    let n = points.len();
+    if n < DEGREE + 1 || params.len() != n {
+        return None;
+    }
+    let mut knots = vec![params[0]; DEGREE + 1];
+    for j in 1..n - DEGREE {
+        knots.push(params[j..j + DEGREE].iter().sum::<f64>() / DEGREE as f64);
+    }
+    knots.extend(std::iter::repeat_n(params[n - 1], DEGREE + 1));
+    // The collocation matrix is banded (at most DEGREE nonzeros around the diagonal) and totally
+    // positive: Gaussian elimination without pivoting on a dense band.
+    let width = 2 * DEGREE + 1;
+    let mut band = vec![0.0; n * width]; // row i, column c ↦ band[i * width + (c + DEGREE - i)]
+    for (i, &u) in params.iter().enumerate() {
+        let span = find_span(&knots, n, u);
+        let basis = basis(&knots, span, u);
+        for (r, b) in basis.iter().enumerate() {
+            let c = span - DEGREE + r;
+            let slot = c + DEGREE;
+            if slot >= i && slot - i < width {
+                band[i * width + slot - i] = *b;
+            }
+        }
+    }
+    let axes = points[0].len();
+    let mut rhs: Vec<Joints> = points.to_vec();
+    let at = |i: usize, c: usize| i * width + (c + DEGREE - i);
+    for k in 0..n {
+        let pivot = band[at(k, k)];
+        if pivot.abs() < 1e-14 {
+            return None;
+        }
+        for i in k + 1..(k + DEGREE + 1).min(n) {
+            let f = band[at(i, k)] / pivot;
+            if f == 0.0 {
+                continue;
+            }
+            for c in k..(k + DEGREE + 1).min(n) {
+                band[at(i, c)] -= f * band[at(k, c)];
+            }
+            let (rk, ri) = (rhs[k], rhs[i]);
+            for a in 0..axes {
+                rhs[i][a] = ri[a] - f * rk[a];
+            }
+        }
+    }
+    let mut control = rhs.clone();
+    for k in (0..n).rev() {
+        let mut v = rhs[k];
+        for c in k + 1..(k + DEGREE + 1).min(n) {
+            for a in 0..axes {
+                v[a] -= band[at(k, c)] * control[c][a];
+            }
+        }
+        for a in 0..axes {
+            v[a] /= band[at(k, k)];
+        }
+        control[k] = v;
+    }
+    Some(Spline { control, knots })
+}
+
+fn find_span(knots: &[f64], n: usize, u: f64) -> usize {
+    if u >= knots[n] {
+        return n - 1;
+    }
+    let mut k = DEGREE;
+    while k + 1 < n && knots[k + 1] <= u {
+        k += 1;
+    }
+    k
+}
+
+/// The nonzero basis functions at `u` in `span` (The NURBS Book A2.2).
+fn basis(knots: &[f64], span: usize, u: f64) -> [f64; DEGREE + 1] {
+    let mut n = [0.0; DEGREE + 1];
+    let (mut left, mut right) = ([0.0; DEGREE + 1], [0.0; DEGREE + 1]);
+    n[0] = 1.0;
+    for j in 1..=DEGREE {
+        left[j] = u - knots[span + 1 - j];
+        right[j] = knots[span + j] - u;
+        let mut saved = 0.0;
+        for r in 0..j {
+            let den = right[r + 1] + left[j - r];
+            let temp = if den != 0.0 { n[r] / den } else { 0.0 };
+            n[r] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        n[j] = saved;
+    }
+    n
+}
+
+/// A run of feed positions and their poses.
+pub struct Run<'a> {
+    /// Joint positions, the first being the start point.
+    pub joints: &'a [Joints],
+    /// The programmed poses (tool tip and axis in the part frame).
+    pub poses: &'a [Pose],
+}
+
+/// Fits a run within `tolerance` (mm of tool tip from the programmed segments), adding the
+/// midpoints of the segments where the spline strays; `None` when it cannot (too few points,
+/// or still off after several refinements: the run is then written as G1).
+pub fn fit(kin: &dyn Kinematics, run: &Run<'_>, tolerance: f64) -> Option<(Spline, Vec<Pose>)> {
+    let mut joints = run.joints.to_vec();
+    let mut poses = run.poses.to_vec();
+    let mut sols = Solutions::new();
+    for _ in 0..6 {
+        let params = chord_params(&poses);
+        let spline = interpolate(&joints, &params)?;
+        let mut worst: Vec<usize> = Vec::new();
+        for s in 0..joints.len() - 1 {
+            let (a, b) = (&poses[s].tip, &poses[s + 1].tip);
+            let off = (1..8)
+                .map(|k| params[s] + (params[s + 1] - params[s]) * f64::from(k) / 8.0)
+                .map(|u| distance_to_segment(&kin.forward(&spline.at(u)).tip, a, b))
+                .fold(0.0, f64::max);
+            if off > tolerance {
+                worst.push(s);
+            }
+        }
+        if worst.is_empty() {
+            return Some((spline, poses));
+        }
+        for &s in worst.iter().rev() {
+            let (p, q) = (poses[s], poses[s + 1]);
+            let pose =
+                Pose { tip: p.tip + (q.tip - p.tip) * 0.5, axis: postpro_kin::linearize::slerp(&p.axis, &q.axis, 0.5) };
+            let near = joints[s].lerp(&joints[s + 1], 0.5);
+            let mid = nearest(kin, &pose, &near, &mut sols)?;
+            joints.insert(s + 1, mid);
+            poses.insert(s + 1, pose);
+        }
+    }
+    None
+}
+
+fn nearest(kin: &dyn Kinematics, pose: &Pose, near: &Joints, sols: &mut Solutions) -> Option<Joints> {
+    kin.inverse(pose, sols);
+    let machine = kin.machine();
+    sols.iter()
+        .map(|s| {
+            let mut j = s.joints;
+            for (i, axis) in machine.axes.iter().enumerate() {
+                if axis.kind == postpro_machine::model::AxisKind::Rotary {
+                    j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
+                }
+            }
+            let d: f64 = j.as_slice().iter().zip(near.as_slice()).map(|(x, y)| (x - y).abs()).sum();
+            (d, j)
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map(|(_, j)| j)
+}
+
+/// Cumulative chord length of the tool tip, with a floor so parameters strictly increase.
+fn chord_params(poses: &[Pose]) -> Vec<f64> {
+    let mut params = Vec::with_capacity(poses.len());
+    let mut u = 0.0;
+    params.push(u);
+    for w in poses.windows(2) {
+        u += (w[1].tip - w[0].tip).norm().max(1e-6);
+        params.push(u);
+    }
+    params
+}
+
+fn distance_to_segment(p: &nalgebra::Point3<f64>, a: &nalgebra::Point3<f64>, b: &nalgebra::Point3<f64>) -> f64 {
+    let ab = b - a;
+    let len2 = ab.norm_squared();
+    let t = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + ab * t)).norm()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolation_passes_through_the_points() {
+        let points: Vec<Joints> =
+            (0..12).map(|k| Joints::from_slice(&[f64::from(k), (f64::from(k) * 0.7).sin() * 10.0, 3.0])).collect();
+        let params: Vec<f64> = (0..12).map(|k| f64::from(k) * 1.3 + f64::from(k * k) * 0.01).collect();
+        let spline = interpolate(&points, &params).expect("fits");
+        for (p, u) in points.iter().zip(&params) {
+            let q = spline.at(*u);
+            for a in 0..3 {
+                assert!((p[a] - q[a]).abs() < 1e-9, "{p:?} vs {q:?} at {u}");
+            }
+        }
+        assert_eq!(spline.control[0], points[0]);
+        assert_eq!(spline.pl(1), 0.0);
+        assert_eq!(spline.pl(11), 0.0);
+        let spans: f64 = (1..=11).map(|k| spline.pl(k)).sum();
+        assert!((spans - (params[11] - params[0])).abs() < 1e-9, "the PL add up to the parameter range");
+    }
+}
