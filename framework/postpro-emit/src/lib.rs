@@ -45,6 +45,17 @@ pub enum EmitError {
         /// The cause.
         message: String,
     },
+    /// A line is longer than the controller accepts.
+    #[error("a line is longer than the {max} characters the {dialect} dialect accepts: `{start}…`")]
+    #[diagnostic(code(emit::line_length), help("shorten the template's output for this block"))]
+    LineTooLong {
+        /// The dialect.
+        dialect: &'static str,
+        /// Its limit.
+        max: usize,
+        /// The start of the line.
+        start: String,
+    },
     /// The template does not compile or render.
     #[error("template {name}: {message}")]
     #[diagnostic(code(emit::template))]

@@ -90,12 +90,19 @@ pub fn write_program(
     if !streamable {
         let program = build(path, solved, kin, dialect, options)?;
         let text = render(&program, name, source)?;
+        for line in text.lines() {
+            check_length(line, dialect)?;
+        }
         return out.write_all(text.as_bytes()).map_err(io_error);
     }
-    out.write_all(state.call_macro("program_start", &[]).map_err(err)?.as_bytes()).map_err(io_error)?;
-    let mut sink = Streaming { state, name, out, shapes: HashMap::new(), line: String::with_capacity(128) };
+    let start = state.call_macro("program_start", &[]).map_err(err)?;
+    start.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(start.as_bytes()).map_err(io_error)?;
+    let mut sink = Streaming { state, name, dialect, out, shapes: HashMap::new(), line: String::with_capacity(128) };
     build_blocks(path, solved, kin, dialect, options, &mut sink)?;
-    out.write_all(state.call_macro("program_end", &[]).map_err(err)?.as_bytes()).map_err(io_error)
+    let end = state.call_macro("program_end", &[]).map_err(err)?;
+    end.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(end.as_bytes()).map_err(io_error)
 }
 
 fn io_error(e: std::io::Error) -> EmitError {
@@ -125,6 +132,7 @@ enum Shape {
 struct Streaming<'s, 'env, 'o> {
     state: &'s minijinja::State<'s, 'env>,
     name: &'s str,
+    dialect: &'s Dialect,
     out: &'o mut dyn Write,
     shapes: HashMap<String, Shape>,
     line: String,
@@ -249,7 +257,7 @@ impl BlockSink for Streaming<'_, '_, '_> {
     fn block(&mut self, block: Block) -> Result<(), EmitError> {
         let Some(key) = shape_key(&block) else {
             let text = self.full(&block)?;
-            return write_line(self.out, &text);
+            return write_line(self.out, &text, self.dialect);
         };
         if !self.shapes.contains_key(&key) {
             let shape = self.skeleton(&block).map_or(Shape::Full, |s| Shape::Skeleton(s, 0));
@@ -258,7 +266,7 @@ impl BlockSink for Streaming<'_, '_, '_> {
         let mut line = std::mem::take(&mut self.line);
         let result = match self.shapes.get(&key) {
             Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line) => {
-                write_line(self.out, &line)
+                write_line(self.out, &line, self.dialect)
             }
             Some(Shape::Skeleton(pieces, checked)) => {
                 // Verify the skeleton against the full rendering; keep it only if they agree.
@@ -266,11 +274,11 @@ impl BlockSink for Streaming<'_, '_, '_> {
                 let agrees = Self::fill(pieces, &block, &mut line) && line == full;
                 let next = if agrees { Shape::Skeleton(pieces.clone(), checked + 1) } else { Shape::Full };
                 self.shapes.insert(key, next);
-                write_line(self.out, &full)
+                write_line(self.out, &full, self.dialect)
             }
             _ => {
                 let text = self.full(&block)?;
-                write_line(self.out, &text)
+                write_line(self.out, &text, self.dialect)
             }
         };
         self.line = line;
@@ -278,6 +286,18 @@ impl BlockSink for Streaming<'_, '_, '_> {
     }
 }
 
-fn write_line(out: &mut dyn Write, text: &str) -> Result<(), EmitError> {
+fn write_line(out: &mut dyn Write, text: &str, dialect: &Dialect) -> Result<(), EmitError> {
+    for line in text.lines() {
+        check_length(line, dialect)?;
+    }
     out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).map_err(io_error)
+}
+
+/// A line longer than the controller accepts is an error, never a truncated block.
+fn check_length(line: &str, dialect: &Dialect) -> Result<(), EmitError> {
+    if line.len() > dialect.max_line {
+        let start: String = line.chars().take(60).collect();
+        return Err(EmitError::LineTooLong { dialect: dialect.name, max: dialect.max_line, start });
+    }
+    Ok(())
 }

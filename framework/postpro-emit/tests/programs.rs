@@ -360,3 +360,30 @@ fn bspline_stays_within_tolerance_of_the_cl_points() {
         }
     }
 }
+
+/// A user template: undefined names are errors (strict), and a line longer than the dialect
+/// accepts is an error, never a truncated block.
+#[test]
+fn user_templates_are_strict_and_lines_are_bounded() {
+    let src = source(EXAMPLES[0]);
+    let path = read(&src);
+    let m = machine("mikron");
+    let kin = solver_for(&m);
+    let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
+    let d = dialect("fanuc").expect("dialect");
+    let options = Options { mode: Mode::G1, program_name: "T".into(), source_name: "t".into(), block_numbers: false };
+    let write = |template: &str| {
+        let mut out = Vec::new();
+        postpro_emit::write_program(&path, &solved, kin.as_ref(), d, &options, "user.j2", template, &mut out)
+            .map(|()| out)
+    };
+    let err = write("{{ header.no_such_field }}").expect_err("strict");
+    assert!(err.to_string().starts_with("template user.j2: "), "{err}");
+    let long = "{% macro program_start() %}%\n{% endmacro %}{% macro program_end() %}%\n{% endmacro %}\
+                {% macro block(b) %}{% for i in range(300) %}X{% endfor %}{% endmacro %}\
+                {{ program_start() }}{% for b in blocks %}{{ block(b) }}\n{% endfor %}{{ program_end() }}";
+    let err = write(long).expect_err("too long");
+    assert!(err.to_string().starts_with("a line is longer than the 256 characters the fanuc dialect accepts"), "{err}");
+    let ok = write("{{ header.name }} {{ blocks|length }}\n").expect("a whole-program template");
+    assert!(String::from_utf8(ok).expect("UTF-8").starts_with("T "));
+}
