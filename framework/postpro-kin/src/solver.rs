@@ -82,10 +82,12 @@ pub trait Kinematics: Send + Sync {
     fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints;
 }
 
-/// The solver a machine definition asks for.
+/// The solver a machine definition asks for. `solver: plugin` gets the generic chain of the
+/// definition here: a plugin's compiled kinematics is loaded by the plugin host
+/// (`postpro-plugins`), which checks it against this same chain.
 pub fn solver_for(machine: &Machine) -> Box<dyn Kinematics> {
     match machine.solver {
-        SolverKind::Generic => Box::new(Chain::new(machine.clone())),
+        SolverKind::Generic | SolverKind::Plugin => Box::new(Chain::new(machine.clone())),
         SolverKind::ClosedForm(form) => match TableTableClosedForm::new(machine.clone(), form) {
             Some(closed) => Box::new(closed),
             // Validation rejects closed forms on other shapes; the generic chain is still right.

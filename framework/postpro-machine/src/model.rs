@@ -35,6 +35,9 @@ pub enum SolverKind {
     Generic,
     /// A hand-derived closed form for a known machine.
     ClosedForm(ClosedForm),
+    /// The compiled kinematics of the plugin that ships the definition (`solver: plugin`).
+    /// Outside a plugin (a YAML file) the generic chain of the definition is used.
+    Plugin,
 }
 
 /// The machines with a hand-derived closed form.

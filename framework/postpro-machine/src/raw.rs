@@ -31,7 +31,7 @@ pub struct MachineFile {
     pub description: String,
     /// The controller dialect.
     pub dialect: String,
-    /// `closed-form` or `generic` (default).
+    /// `closed-form`, `generic` (default) or `plugin`.
     #[serde(default)]
     pub solver: Solver,
     /// The axes, in the order the NC program writes them.
@@ -55,6 +55,8 @@ pub enum Solver {
     /// The generic serial-chain solver.
     #[default]
     Generic,
+    /// The compiled kinematics of the plugin that ships the definition.
+    Plugin,
 }
 
 /// `kind:` of an axis.

@@ -635,8 +635,11 @@ impl Validator<'_> {
     }
 
     fn solver(&self, axes: &[Axis], chain: &Chain) -> Result<SolverKind, MachineError> {
-        if self.raw.solver == raw::Solver::Generic {
-            return Ok(SolverKind::Generic);
+        match self.raw.solver {
+            raw::Solver::Generic => return Ok(SolverKind::Generic),
+            // Any shape: the plugin's kinematics is checked against this chain when it loads.
+            raw::Solver::Plugin => return Ok(SolverKind::Plugin),
+            raw::Solver::ClosedForm => {}
         }
         let names: Vec<&str> = CLOSED_FORMS.iter().map(|(n, _)| *n).collect();
         let Some(form) = closed_form_for(&self.raw.name) else {
@@ -1046,6 +1049,14 @@ chain:
     fn closed_form_only_for_known_names() {
         let (m, _, at) = fails(&with("solver: generic", "solver: closed-form"));
         assert_eq!((m.as_str(), at.as_str()), ("solver: machine `test-tt` has no closed-form solver", "closed-form"));
+    }
+
+    #[test]
+    fn plugin_solver_takes_any_shape() {
+        let m = load(&with("solver: generic", "solver: plugin")).unwrap();
+        assert_eq!(m.solver, SolverKind::Plugin);
+        let head_table = with("solver: generic", "solver: plugin").replace("part: [A, C]", "part: [C]\n  tool: [A]");
+        assert_eq!(load(&head_table).unwrap().solver, SolverKind::Plugin);
     }
 
     #[test]

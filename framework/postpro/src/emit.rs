@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use indicatif::{ProgressBar, ProgressStyle};
 use postpro_cl::Source;
 use postpro_emit::{EmitError, Mode, Options, builtin_template, dialect, write_program};
-use postpro_kin::{solve, solver_for};
+use postpro_kin::solve;
 
 use crate::report;
 use crate::solve::{IktArgs, MachineArgs};
@@ -73,10 +73,11 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
     let (Some(file), Some(machine_args)) = (&args.file, &args.machine) else {
         return fail("error: the main job needs a CL file and --machine NAME (see postpro --help)\n", 2);
     };
-    let mut machine = match machine_args.load() {
-        Ok(m) => m,
+    let chosen = match machine_args.choose() {
+        Ok(c) => c,
         Err(code) => return code,
     };
+    let mut machine = chosen.machine.clone();
     if let Err(message) = args.ikt.apply(&mut machine) {
         return fail(&format!("error: {message}\n"), 2);
     }
@@ -133,8 +134,21 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         return fail(&format!("error: {} does not read; nothing written\n", source.name()), 1);
     }
     stage("solving the kinematics");
-    let kin = solver_for(&machine);
-    let solved = match solve(kin.as_ref(), &path, &machine.policy) {
+    // The machine's kinematics: a plugin's compiled solver, or a built-in one.
+    let solver = match chosen.solver(&machine) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let kin = solver.kinematics();
+    let solved = solve(kin, &path, &machine.policy);
+    // A plugin's failure during the solve comes first: it is why the solve went wrong.
+    if let Some(e) = solver.take_error() {
+        if let Some(bar) = &progress {
+            bar.finish_and_clear();
+        }
+        return fail(&report::render(&e), 1);
+    }
+    let solved = match solved {
         Ok(s) => s,
         Err(e) => {
             if let Some(bar) = &progress {
@@ -153,9 +167,8 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
     let options =
         Options { mode, program_name, source_name: source.name().to_string(), block_numbers: args.block_numbers };
-    let write = |out: &mut dyn Write| {
-        write_program(&path, &solved, kin.as_ref(), dialect, &options, &template.0, &template.1, out)
-    };
+    let write =
+        |out: &mut dyn Write| write_program(&path, &solved, kin, dialect, &options, &template.0, &template.1, out);
     let written = if output == Path::new("-") {
         let stdout = std::io::stdout();
         let mut out = std::io::BufWriter::new(stdout.lock());

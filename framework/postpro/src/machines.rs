@@ -1,12 +1,20 @@
-//! `postpro machines`: list every known machine (built in, and the files of the folders given by
-//! `--dir` and `POSTPRO_MACHINE_PATH`), or validate one definition with `--check FILE`.
+//! `postpro machines`: list every known machine (built in, the files of the folders given by
+//! `--dir` and `POSTPRO_MACHINE_PATH`, and the plugins: `--plugin FILE`, `POSTPRO_PLUGIN_PATH`,
+//! the `plugins` folder beside the binary), or validate one definition with `--check FILE`.
+//!
+//! The kinematics of every plugin machine with `solver: plugin` is loaded and checked against
+//! its definition: a machine whose kinematics is refused is listed with the solver
+//! `plugin (refused)` and its error printed. Every problem is printed and the exit code is 1,
+//! but the machines that load are listed all the same.
 
+use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use postpro_machine::model::{Machine, SolverKind};
 use postpro_machine::{Entry, MachineError, Registry};
+use postpro_plugins::Plugins;
 
 /// The environment variable with extra machine folders, separated like `PATH` (`:` on Unix).
 const PATH_VARIABLE: &str = "POSTPRO_MACHINE_PATH";
@@ -21,6 +29,10 @@ pub(crate) struct MachinesArgs {
     /// in the environment variable POSTPRO_MACHINE_PATH (colon-separated) are loaded first.
     #[arg(long = "dir", value_name = "DIR")]
     dirs: Vec<PathBuf>,
+    /// Also load this plugin library (repeatable) and check its machines' kinematics. The
+    /// `plugins` folder beside postpro and the folders in POSTPRO_PLUGIN_PATH are loaded first.
+    #[arg(long = "plugin", value_name = "FILE", conflicts_with = "check")]
+    plugins: Vec<PathBuf>,
     /// Validate one machine definition file: print its diagnostic and exit with 1 if it has an
     /// error, or print a one-line summary and exit with 0.
     #[arg(long, value_name = "FILE")]
@@ -42,21 +54,28 @@ pub(crate) fn run(args: &MachinesArgs) -> ExitCode {
         .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
         .unwrap_or_default();
     dirs.extend(args.dirs.iter().cloned());
-    let mut errors = Vec::new();
+    let mut errors: Vec<String> = Vec::new();
     for dir in &dirs {
-        errors.extend(registry.load_dir(dir));
+        errors.extend(registry.load_dir(dir).iter().map(render));
     }
+    let mut plugins = Plugins::new();
+    let mut plugin_errors = plugins.discover(&args.plugins);
+    plugin_errors.extend(plugins.register(&mut registry));
+    plugin_errors.extend(plugins.check(&registry));
+    let refused: HashSet<String> =
+        plugin_errors.iter().filter_map(|e| e.machine()).map(str::to_ascii_lowercase).collect();
+    errors.extend(plugin_errors.iter().map(|e| crate::report::render(e)));
     let mut err = std::io::stderr().lock();
     for e in &errors {
-        let _ = err.write_all(render(e).as_bytes());
+        let _ = err.write_all(e.as_bytes());
     }
     let mut out = std::io::stdout().lock();
     let written = if args.json {
-        serde_json::to_writer_pretty(&mut out, &json(registry.entries()))
+        serde_json::to_writer_pretty(&mut out, &json(registry.entries(), &refused))
             .map_err(std::io::Error::from)
             .and_then(|()| writeln!(out))
     } else {
-        out.write_all(table(registry.entries()).as_bytes())
+        out.write_all(table(registry.entries(), &refused).as_bytes())
     };
     match written {
         // `postpro machines | head`: the reader has what it wanted.
@@ -109,6 +128,16 @@ fn solver(m: &Machine) -> &'static str {
     match m.solver {
         SolverKind::Generic => "generic",
         SolverKind::ClosedForm(_) => "closed-form",
+        SolverKind::Plugin => "plugin",
+    }
+}
+
+/// The solver column: `plugin (refused)` for a plugin machine whose kinematics did not load.
+fn solver_cell(m: &Machine, refused: &HashSet<String>) -> &'static str {
+    if m.solver == SolverKind::Plugin && refused.contains(&m.name.to_ascii_lowercase()) {
+        "plugin (refused)"
+    } else {
+        solver(m)
     }
 }
 
@@ -118,7 +147,7 @@ fn letters(m: &Machine) -> String {
 }
 
 /// One row per machine, columns aligned.
-fn table(entries: &[Entry]) -> String {
+fn table(entries: &[Entry], refused: &HashSet<String>) -> String {
     let mut rows: Vec<[String; 6]> =
         vec![["name", "aliases", "topology", "solver", "dialect", "origin"].map(String::from)];
     for e in entries {
@@ -128,7 +157,7 @@ fn table(entries: &[Entry]) -> String {
             m.name.clone(),
             aliases,
             m.topology().label().to_string(),
-            solver(m).to_string(),
+            solver_cell(m, refused).to_string(),
             m.dialect.clone(),
             e.origin.to_string(),
         ]);
@@ -157,7 +186,7 @@ fn table(entries: &[Entry]) -> String {
 
 /// The list as JSON: one object per machine with the keys `name`, `aliases`, `description`,
 /// `topology`, `solver`, `dialect`, `axes` and `origin`.
-fn json(entries: &[Entry]) -> serde_json::Value {
+fn json(entries: &[Entry], refused: &HashSet<String>) -> serde_json::Value {
     let list = entries
         .iter()
         .map(|e| {
@@ -167,7 +196,7 @@ fn json(entries: &[Entry]) -> serde_json::Value {
                 "aliases": m.aliases,
                 "description": m.description,
                 "topology": m.topology().label(),
-                "solver": solver(m),
+                "solver": solver_cell(m, refused),
                 "dialect": m.dialect,
                 "axes": m.axes.iter().map(|a| a.letter.as_str()).collect::<Vec<_>>(),
                 "origin": e.origin.to_string(),
@@ -188,7 +217,7 @@ mod tests {
     #[test]
     fn the_table_has_a_row_per_machine() {
         let r = builtin();
-        let t = table(r.entries());
+        let t = table(r.entries(), &HashSet::new());
         let lines: Vec<&str> = t.lines().collect();
         assert_eq!(lines.len(), r.entries().len() + 1);
         assert!(lines[0].starts_with("name "), "{t}");
@@ -202,7 +231,7 @@ mod tests {
     #[test]
     fn the_json_has_stable_keys() {
         let r = builtin();
-        let j = json(r.entries());
+        let j = json(r.entries(), &HashSet::new());
         let list = j.as_array().expect("an array");
         assert_eq!(list.len(), r.entries().len());
         let keys: Vec<&str> = list[0].as_object().expect("an object").keys().map(String::as_str).collect();

@@ -2,15 +2,21 @@
 //! the axis values of every position, the decisions that are not obvious (branch switches,
 //! singular holds, retracts), and the points linearization added. The IKT options are shared
 //! with the commands that write NC programs.
+//!
+//! Machines come from the built-in definitions, machine folders, and plugins (`--plugin FILE`,
+//! `POSTPRO_PLUGIN_PATH`, the `plugins` folder beside the binary); a plugin machine with
+//! `solver: plugin` is solved by the plugin's compiled kinematics, checked against its
+//! definition when loaded and on every call.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use postpro_cl::Source;
-use postpro_kin::{Solved, StepKind, solve, solver_for};
-use postpro_machine::Registry;
-use postpro_machine::model::{AxisKind, BranchPreference, Machine, OnDiscontinuity, PathChoice};
+use postpro_kin::{Solved, StepKind, solve};
+use postpro_machine::model::{AxisKind, BranchPreference, Machine, OnDiscontinuity, PathChoice, SolverKind};
+use postpro_machine::{Origin, Registry};
+use postpro_plugins::{Plugins, Solver};
 
 use crate::report;
 
@@ -37,6 +43,37 @@ pub(crate) struct MachineArgs {
     /// Also load the machine files of this folder (repeatable), after POSTPRO_MACHINE_PATH.
     #[arg(long = "machine-dir", value_name = "DIR")]
     dirs: Vec<PathBuf>,
+    /// Also load this plugin library (repeatable), after the `plugins` folder beside postpro and
+    /// the folders of POSTPRO_PLUGIN_PATH.
+    #[arg(long = "plugin", value_name = "FILE")]
+    plugins: Vec<PathBuf>,
+}
+
+/// The machine asked for, where it comes from, and the plugins loaded (its kinematics may be one
+/// of theirs).
+pub(crate) struct Chosen {
+    /// The machine, as defined.
+    pub(crate) machine: Machine,
+    /// Where it comes from.
+    pub(crate) origin: Origin,
+    /// The plugins loaded.
+    pub(crate) plugins: Plugins,
+}
+
+impl Chosen {
+    /// The kinematics of `machine` (the chosen one, with the command line's overrides): for
+    /// `solver: plugin` from a plugin the plugin's, verified against the definition; otherwise
+    /// postpro's. Or the exit code after printing why not.
+    pub(crate) fn solver(&self, machine: &Machine) -> Result<Solver, ExitCode> {
+        if machine.solver == SolverKind::Plugin && !matches!(self.origin, Origin::Plugin { .. }) {
+            eprintln!(
+                "note: machine `{}` says `solver: plugin` but does not come from a plugin: solving with the generic \
+                 chain of its definition",
+                machine.name
+            );
+        }
+        self.plugins.solver(machine, &self.origin).map_err(|e| fail(&report::render(&e), 1))
+    }
 }
 
 /// The IKT policy options; each overrides the machine definition's default.
@@ -134,8 +171,10 @@ impl IktArgs {
 }
 
 impl MachineArgs {
-    /// The machine, or the exit code after printing why not (2 for an unknown name).
-    pub(crate) fn load(&self) -> Result<Machine, ExitCode> {
+    /// The machine with its origin and the plugins loaded, or the exit code after printing why
+    /// not: 2 for an unknown name, 1 for a machine file or a `--plugin` library that does not
+    /// load. Problems with the other folders and plugins are printed and passed over.
+    pub(crate) fn choose(&self) -> Result<Chosen, ExitCode> {
         let mut registry = Registry::builtin().map_err(|e| fail(&report::render(&e), 1))?;
         let mut dirs: Vec<PathBuf> = std::env::var_os("POSTPRO_MACHINE_PATH")
             .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
@@ -146,18 +185,31 @@ impl MachineArgs {
                 eprint!("{}", report::render(&e));
             }
         }
+        let mut plugins = Plugins::new();
+        for e in plugins.discover(&[]) {
+            eprint!("{}", report::render(&e));
+        }
+        let mut refused = false;
+        for file in &self.plugins {
+            if let Err(e) = plugins.load(file) {
+                eprint!("{}", report::render(&e));
+                refused = true;
+            }
+        }
+        for e in plugins.register(&mut registry) {
+            eprint!("{}", report::render(&e));
+        }
+        if refused {
+            return Err(fail("error: a plugin given with --plugin does not load\n", 1));
+        }
         let as_file = Path::new(&self.machine);
         let is_file = as_file.extension().is_some_and(|e| e == "yaml" || e == "yml") || as_file.is_file();
-        if is_file {
-            return match registry.load_file(as_file) {
-                Ok(entry) => Ok(entry.machine.clone()),
-                Err(e) => Err(fail(&report::render(&e), 1)),
-            };
-        }
-        match registry.find(&self.machine) {
-            Ok(entry) => Ok(entry.machine.clone()),
-            Err(e) => Err(fail(&report::render(&e), 2)),
-        }
+        let entry = if is_file {
+            registry.load_file(as_file).map_err(|e| fail(&report::render(&e), 1))?
+        } else {
+            registry.find(&self.machine).map_err(|e| fail(&report::render(&e), 2))?
+        };
+        Ok(Chosen { machine: entry.machine.clone(), origin: entry.origin.clone(), plugins })
     }
 }
 
@@ -167,10 +219,11 @@ fn fail(message: &str, code: u8) -> ExitCode {
 }
 
 pub(crate) fn run(args: &SolveArgs) -> ExitCode {
-    let mut machine = match args.machine.load() {
-        Ok(m) => m,
+    let chosen = match args.machine.choose() {
+        Ok(c) => c,
         Err(code) => return code,
     };
+    let mut machine = chosen.machine.clone();
     if let Err(message) = args.ikt.apply(&mut machine) {
         return fail(&format!("error: {message}\n"), 2);
     }
@@ -185,12 +238,28 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
         }
         return fail(&format!("error: {} does not read; nothing solved\n", source.name()), 1);
     }
-    let kin = solver_for(&machine);
-    let solved = match solve(kin.as_ref(), &path, &machine.policy) {
+    let solver = match chosen.solver(&machine) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let solved = solve(solver.kinematics(), &path, &machine.policy);
+    // A plugin's failure during the solve comes first: it is why the solve went wrong.
+    if let Some(e) = solver.take_error() {
+        return fail(&report::render(&e), 1);
+    }
+    let solved = match solved {
         Ok(s) => s,
         Err(e) => return fail(&report::render_with_source(e, source.name(), source.text()), 1),
     };
-    let text = if args.csv { csv(&machine, &source, &solved) } else { summary(&machine, &source, &solved) };
+    let kinematics = match &solver {
+        Solver::Plugin(a) => Some(format!("plugin {} (checked against the definition)", a.library().display())),
+        Solver::Built(_) => None,
+    };
+    let text = if args.csv {
+        csv(&machine, &source, &solved)
+    } else {
+        summary(&machine, &source, &solved, kinematics.as_deref())
+    };
     print!("{text}");
     ExitCode::SUCCESS
 }
@@ -227,10 +296,13 @@ fn csv(machine: &Machine, source: &Source, solved: &Solved) -> String {
     out
 }
 
-fn summary(machine: &Machine, source: &Source, solved: &Solved) -> String {
+fn summary(machine: &Machine, source: &Source, solved: &Solved, kinematics: Option<&str>) -> String {
     let mut out = String::new();
     let cl = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
     let _ = writeln!(out, "machine     {} ({})", machine.name, machine.topology().label());
+    if let Some(k) = kinematics {
+        let _ = writeln!(out, "kinematics  {k}");
+    }
     let _ = writeln!(out, "file        {}", source.name());
     let _ = writeln!(
         out,
