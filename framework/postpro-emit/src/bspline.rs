@@ -164,7 +164,7 @@ pub struct Run<'a> {
 /// Fits a run within `tolerance` (mm of tool tip from the programmed segments), adding the
 /// midpoints of the segments where the spline strays; `None` when it cannot (too few points,
 /// or still off after several refinements: the run is then written as G1).
-pub fn fit(kin: &dyn Kinematics, run: &Run<'_>, tolerance: f64) -> Option<(Spline, Vec<Pose>)> {
+pub fn fit(kin: &dyn Kinematics, run: &Run<'_>, tolerance: f64, singular_cone: f64) -> Option<(Spline, Vec<Pose>)> {
     let mut joints = run.joints.to_vec();
     let mut poses = run.poses.to_vec();
     let mut sols = Solutions::new();
@@ -190,30 +190,12 @@ pub fn fit(kin: &dyn Kinematics, run: &Run<'_>, tolerance: f64) -> Option<(Splin
             let pose =
                 Pose { tip: p.tip + (q.tip - p.tip) * 0.5, axis: postpro_kin::linearize::slerp(&p.axis, &q.axis, 0.5) };
             let near = joints[s].lerp(&joints[s + 1], 0.5);
-            let mid = nearest(kin, &pose, &near, &mut sols)?;
+            let mid = postpro_kin::linearize::nearest_solution(kin, &pose, &near, singular_cone, &mut sols)?;
             joints.insert(s + 1, mid);
             poses.insert(s + 1, pose);
         }
     }
     None
-}
-
-fn nearest(kin: &dyn Kinematics, pose: &Pose, near: &Joints, sols: &mut Solutions) -> Option<Joints> {
-    kin.inverse(pose, sols);
-    let machine = kin.machine();
-    sols.iter()
-        .map(|s| {
-            let mut j = s.joints;
-            for (i, axis) in machine.axes.iter().enumerate() {
-                if axis.kind == postpro_machine::model::AxisKind::Rotary {
-                    j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
-                }
-            }
-            let d: f64 = j.as_slice().iter().zip(near.as_slice()).map(|(x, y)| (x - y).abs()).sum();
-            (d, j)
-        })
-        .min_by(|x, y| x.0.total_cmp(&y.0))
-        .map(|(_, j)| j)
 }
 
 /// Cumulative chord length of the tool tip, with a floor so parameters strictly increase.

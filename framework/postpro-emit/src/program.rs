@@ -190,6 +190,10 @@ pub enum Block {
         name: Option<String>,
         /// Length-offset register.
         offset: u32,
+        /// The CNC applies the tool length (`G43 H…`, `D…`): true when the machine definition's
+        /// tool length is 0, i.e. the axis values are those of the spindle nose. False when the
+        /// axis values already include the tool length: the CNC must not add it again.
+        length_compensation: bool,
     },
     /// Spindle on.
     SpindleOn {
@@ -474,11 +478,21 @@ impl<'a> Builder<'a> {
         })
     }
 
+    /// Text made fit for a comment of the dialect: parentheses become brackets where the
+    /// dialect's comments are parenthesised, other forbidden and control characters blanks.
+    fn clean(&self, text: &str) -> String {
+        text.chars()
+            .map(|c| match c {
+                '(' if self.dialect.comment_forbidden.contains(c) => '[',
+                ')' if self.dialect.comment_forbidden.contains(c) => ']',
+                c if self.dialect.comment_forbidden.contains(c) || c.is_control() => ' ',
+                c => c,
+            })
+            .collect()
+    }
+
     fn comment(&mut self, text: &str) {
-        let mut clean: String = text
-            .chars()
-            .map(|c| if self.dialect.comment_forbidden.contains(c) || c.is_control() { ' ' } else { c })
-            .collect();
+        let mut clean = self.clean(text);
         let room = self
             .dialect
             .max_line
@@ -633,7 +647,7 @@ impl<'a> Builder<'a> {
                 let pieces = if f_inverse < lo { (lo / f_inverse).ceil().min(1e6) as usize } else { 1 };
                 let (f_piece, note) = if f_inverse * pieces as f64 > hi {
                     self.clamped += 1;
-                    (hi, Some(format!("F limited to {hi} (block of {length:.4} mm)")))
+                    (hi, Some(self.clean(&format!("F limited to {hi} (block of {length:.4} mm)"))))
                 } else {
                     (f_inverse * pieces as f64, None)
                 };
@@ -697,6 +711,7 @@ impl<'a> Builder<'a> {
                     number: t.number,
                     name: t.name.clone(),
                     offset: t.adjust.unwrap_or(t.number),
+                    length_compensation: self.machine.chain.tool_length == 0.0,
                 });
                 // After a tool change every axis is written again.
                 self.written.iter_mut().for_each(|w| *w = None);
@@ -813,7 +828,8 @@ impl<'a> Builder<'a> {
             let joints: Vec<Joints> = std::iter::once(start.joints).chain(run.iter().map(|(s, _)| s.joints)).collect();
             let poses: Vec<Pose> = std::iter::once(start.pose).chain(run.iter().map(|(s, _)| s.pose)).collect();
             let tolerance = self.machine.policy.linearization_tolerance;
-            crate::bspline::fit(self.kin, &crate::bspline::Run { joints: &joints, poses: &poses }, tolerance)
+            let cone = self.machine.policy.singular_cone;
+            crate::bspline::fit(self.kin, &crate::bspline::Run { joints: &joints, poses: &poses }, tolerance, cone)
         });
         let feed = run[0].1.clone().unwrap_or_default();
         match fitted {

@@ -31,8 +31,7 @@ pub use solver::{Kinematics, Solution, Solutions, solver_for};
 pub fn solve(kin: &dyn Kinematics, path: &postpro_cl::ToolPath, policy: &Policy) -> Result<Solved, SolveError> {
     let targets = targets(path, policy.linearization_tolerance);
     let mut solved = choose(kin, &targets, policy, None)?;
-    solved.inserted =
-        linearize::linearize_noting(kin, &mut solved.steps, &mut solved.decisions, policy.linearization_tolerance);
+    solved.inserted = linearize::linearize_noting(kin, &mut solved.steps, &mut solved.decisions, policy);
     Ok(solved)
 }
 
@@ -242,7 +241,7 @@ mod policy_tests {
         let mut solved = choose(kin.as_ref(), &targets, &policy, None).expect("solvable");
         let before: f64 =
             solved.steps.windows(2).map(|w| linearize::deviation(kin.as_ref(), &w[0], &w[1])).fold(0.0, f64::max);
-        let added = linearize(kin.as_ref(), &mut solved.steps, 0.01);
+        let added = linearize(kin.as_ref(), &mut solved.steps, &policy);
         let after: f64 =
             solved.steps.windows(2).map(|w| linearize::deviation(kin.as_ref(), &w[0], &w[1])).fold(0.0, f64::max);
         assert!(before > 0.01 && added > 0 && after <= 0.01, "before {before}, after {after}, added {added}");

@@ -5,7 +5,7 @@
 
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 
-use crate::policy::{Noted, Step, StepKind};
+use crate::policy::{Noted, Policy, Step, StepKind};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
 
@@ -15,13 +15,20 @@ const MAX_DEPTH: u32 = 12;
 const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// Inserts points between feed moves until the tool tip, with the axes interpolated linearly,
-/// stays within `tolerance` (mm) of every programmed segment. Returns the number inserted.
-pub fn linearize(kin: &dyn Kinematics, steps: &mut Vec<Step>, tolerance: f64) -> usize {
-    linearize_noting(kin, steps, &mut Vec::new(), tolerance)
+/// stays within the policy's tolerance (mm) of every programmed segment. Returns the number
+/// inserted. A point within the singular cone takes its free axis from the interpolation.
+pub fn linearize(kin: &dyn Kinematics, steps: &mut Vec<Step>, policy: &Policy) -> usize {
+    linearize_noting(kin, steps, &mut Vec::new(), policy)
 }
 
 /// [`linearize`], keeping the step indices of `decisions` pointing at the same steps.
-pub fn linearize_noting(kin: &dyn Kinematics, steps: &mut Vec<Step>, decisions: &mut [Noted], tolerance: f64) -> usize {
+pub fn linearize_noting(
+    kin: &dyn Kinematics,
+    steps: &mut Vec<Step>,
+    decisions: &mut [Noted],
+    policy: &Policy,
+) -> usize {
+    let tolerance = policy.linearization_tolerance;
     let mut out = Vec::with_capacity(steps.len());
     let mut new_index = Vec::with_capacity(steps.len());
     let mut inserted = 0;
@@ -29,7 +36,7 @@ pub fn linearize_noting(kin: &dyn Kinematics, steps: &mut Vec<Step>, decisions: 
     for (k, step) in steps.iter().enumerate() {
         if k > 0 && !step.rapid && matches!(step.kind, StepKind::Cl | StepKind::Reengage) {
             let prev = steps[k - 1];
-            inserted += subdivide(kin, &prev, step, tolerance, 0, &mut out, &mut sols);
+            inserted += subdivide(kin, &prev, step, (tolerance, policy.singular_cone), 0, &mut out, &mut sols);
         }
         new_index.push(out.len());
         out.push(*step);
@@ -53,7 +60,7 @@ fn subdivide(
     kin: &dyn Kinematics,
     a: &Step,
     b: &Step,
-    tolerance: f64,
+    (tolerance, cone): (f64, f64),
     depth: u32,
     out: &mut Vec<Step>,
     sols: &mut Solutions,
@@ -62,17 +69,35 @@ fn subdivide(
         return 0;
     }
     let pose = Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * 0.5, axis: slerp(&a.pose.axis, &b.pose.axis, 0.5) };
-    let Some(joints) = nearest_solution(kin, &pose, &a.joints.lerp(&b.joints, 0.5), sols) else { return 0 };
+    let Some(joints) = nearest_solution(kin, &pose, &a.joints.lerp(&b.joints, 0.5), cone, sols) else { return 0 };
     let mid = Step { joints, pose, rapid: false, span: b.span, kind: StepKind::Linearized };
-    let left = subdivide(kin, a, &mid, tolerance, depth + 1, out, sols);
+    let left = subdivide(kin, a, &mid, (tolerance, cone), depth + 1, out, sols);
     out.push(mid);
-    left + 1 + subdivide(kin, &mid, b, tolerance, depth + 1, out, sols)
+    left + 1 + subdivide(kin, &mid, b, (tolerance, cone), depth + 1, out, sols)
 }
 
-/// The inverse solution closest to `near` (rotary angles unwound next to it).
-fn nearest_solution(kin: &dyn Kinematics, pose: &Pose, near: &Joints, sols: &mut Solutions) -> Option<Joints> {
+/// The inverse solution closest to `near` (rotary angles unwound next to it). Within the
+/// singular cone the free axis is not taken from the (ill-conditioned) pose but from `near`,
+/// as the policy does for the CL points.
+pub fn nearest_solution(
+    kin: &dyn Kinematics,
+    pose: &Pose,
+    near: &Joints,
+    singular_cone: f64,
+    sols: &mut Solutions,
+) -> Option<Joints> {
     kin.inverse(pose, sols);
     let machine = kin.machine();
+    if let Some((free, _)) = sols.iter().find_map(|s| s.pole.filter(|&(_, d)| d < singular_cone)) {
+        let mut j = kin.inverse_holding(pose, free, near[free])?;
+        for (i, axis) in machine.axes.iter().enumerate() {
+            if axis.kind == postpro_machine::model::AxisKind::Rotary && i != free {
+                j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
+            }
+        }
+        j[free] = near[free];
+        return Some(j);
+    }
     sols.iter()
         .map(|s| {
             let mut j = s.joints;

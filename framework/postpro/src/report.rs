@@ -21,3 +21,17 @@ where
     let report = miette::Report::new(diagnostic).with_source_code(NamedSource::new(name, text.to_string()));
     render(report.as_ref())
 }
+
+/// Prints to standard output; a closed pipe (`postpro … | head`) ends quietly, other write
+/// errors are input/output errors (exit 1).
+pub(crate) fn print_stdout(text: &str) -> std::process::ExitCode {
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: cannot write to standard output: {e}");
+            std::process::ExitCode::from(1)
+        }
+    }
+}

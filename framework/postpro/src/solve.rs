@@ -260,8 +260,7 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
     } else {
         summary(&machine, &source, &solved, kinematics.as_deref())
     };
-    print!("{text}");
-    ExitCode::SUCCESS
+    report::print_stdout(&text)
 }
 
 fn value(machine: &Machine, axis: usize, v: f64) -> f64 {
@@ -289,7 +288,8 @@ fn csv(machine: &Machine, source: &Source, solved: &Solved) -> String {
         let line = source.line_col(s.span.start as usize).line;
         let _ = write!(out, "{k},{line},{},{}", kind(s.kind), u8::from(s.rapid));
         for (i, a) in machine.axes.iter().enumerate() {
-            let _ = write!(out, ",{:.*}", usize::from(a.decimals), value(machine, i, s.joints[i]));
+            out.push(',');
+            postpro_emit::push_number(&mut out, value(machine, i, s.joints[i]), usize::from(a.decimals), false);
         }
         out.push('\n');
     }
