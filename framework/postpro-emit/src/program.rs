@@ -665,6 +665,7 @@ impl<'a> Builder<'a> {
                 }
             }
             _ => {
+                let mut note = None;
                 let feed_text = match feed {
                     Some(f) => {
                         let (value, mode) = match f.per {
@@ -673,11 +674,17 @@ impl<'a> Builder<'a> {
                         };
                         self.set_feed_mode(mode);
                         let (lo, hi) = self.dialect.feed_range;
-                        let value = if mode == "per-minute" { value.clamp(lo, hi) } else { value };
+                        let limited = if mode == "per-minute" { value.clamp(lo, hi) } else { value };
                         let mut text = String::new();
-                        push_number(&mut text, value, self.dialect.feed_decimals, false);
+                        push_number(&mut text, limited, self.dialect.feed_decimals, false);
                         (self.last_feed.as_deref() != Some(text.as_str())).then(|| {
                             self.last_feed = Some(text.clone());
+                            if limited != value {
+                                // Out of the controller's range: written at the limit, and said so.
+                                note = Some(
+                                    self.clean(&format!("feed {value} mm/min out of the controller's range {lo}…{hi}")),
+                                );
+                            }
                             text
                         })
                     }
@@ -688,7 +695,7 @@ impl<'a> Builder<'a> {
                     return Ok(());
                 }
                 let n = self.n();
-                self.push(Block::Linear { n, words, feed: feed_text, note: None });
+                self.push(Block::Linear { n, words, feed: feed_text, note });
             }
         }
         Ok(())

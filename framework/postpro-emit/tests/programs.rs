@@ -60,7 +60,13 @@ const REAL: [&str; 2] = [
 #[test]
 fn every_built_in_machine_in_every_mode_on_the_examples() {
     for machine_name in ["mikron-ucp710", "maho600e"] {
-        for (mode, label) in [(Mode::G1, "g1"), (Mode::InverseTime, "inverse-time"), (Mode::Tcp, "tcp")] {
+        for (mode, label) in
+            [(Mode::G1, "g1"), (Mode::InverseTime, "inverse-time"), (Mode::Tcp, "tcp"), (Mode::Bspline, "bspline")]
+        {
+            // BSPLINE exists in the Siemens dialect only (the Mikron's).
+            if mode == Mode::Bspline && machine(machine_name).dialect != "siemens-840d" {
+                continue;
+            }
             for example in EXAMPLES {
                 let stem = example.rsplit('/').next().unwrap_or(example).trim_end_matches(".cl");
                 let text = program(example, machine_name, mode, None);
@@ -388,4 +394,24 @@ fn user_templates_are_strict_and_lines_are_bounded() {
     assert!(err.to_string().starts_with("a line is longer than the 256 characters the fanuc dialect accepts"), "{err}");
     let ok = write("{{ header.name }} {{ blocks|length }}\n").expect("a whole-program template");
     assert!(String::from_utf8(ok).expect("UTF-8").starts_with("T "));
+}
+
+/// A feed beyond the controller's range is written at the limit, with a note on the block.
+#[test]
+fn a_feed_out_of_range_is_limited_and_noted() {
+    let src = postpro_cl::Source::new("fast.cl", "FEDRAT/MMPM,150000\nGOTO/0,0,0\nGOTO/10,0,0\nGOTO/20,0,0\n");
+    let path = read(&src);
+    let m = machine("maho");
+    let kin = solver_for(&m);
+    let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
+    let d = dialect("fanuc").expect("dialect");
+    let options =
+        Options { mode: Mode::G1, program_name: "T".into(), source_name: "fast.cl".into(), block_numbers: false };
+    let text = render(
+        &build(&path, &solved, kin.as_ref(), d, &options).expect("builds"),
+        d.name,
+        builtin_template(d.name).expect("template"),
+    )
+    .expect("renders");
+    assert!(text.contains("F99999.000 (feed 150000 mm/min out of the controller's range 0.001…99999)"), "{text}");
 }
