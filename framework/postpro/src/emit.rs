@@ -91,7 +91,11 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             Ok(t) => (path.display().to_string(), t),
             Err(e) => return fail(&format!("error: cannot read the template {}: {e}\n", path.display()), 1),
         },
-        None => (format!("{}.j2", dialect.name), builtin_template(dialect.name).unwrap_or_default().to_string()),
+        None => match plugin_template(&chosen, args.dialect.is_none()) {
+            // The machine's plugin ships a template for it: used unless --dialect asks otherwise.
+            Some(t) => t,
+            None => (format!("{}.j2", dialect.name), builtin_template(dialect.name).unwrap_or_default().to_string()),
+        },
     };
     let output = match &args.output {
         Some(o) => o.clone(),
@@ -197,6 +201,17 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         );
     }
     ExitCode::SUCCESS
+}
+
+/// The template named after the machine (`<machine>` or `<machine>.j2`) that the machine's own
+/// plugin ships, if any.
+fn plugin_template(chosen: &crate::solve::Chosen, wanted: bool) -> Option<(String, String)> {
+    let postpro_machine::Origin::Plugin { library } = &chosen.origin else { return None };
+    let name = chosen.machine.name.as_str();
+    let plugin = chosen.plugins.plugins().iter().find(|p| p.path() == library.as_path())?;
+    let template =
+        plugin.templates().find(|t| t.name == name || t.name.strip_suffix(".j2") == Some(name)).filter(|_| wanted)?;
+    Some((format!("plugin {}: {}", library.display(), template.name), template.text.clone()))
 }
 
 fn same_file(a: &Path, b: &Path) -> bool {

@@ -185,6 +185,10 @@ fn a_bundled_example_is_post_processed_on_the_plugin_machine() {
     let lines: Vec<&str> = program.lines().collect();
     assert!(lines[0].starts_with("0 BEGIN PGM HYPAR-5AXIS MM"), "a Heidenhain program: {}", lines[0]);
     assert!(lines[1].contains("fork-head-bc"), "{}", lines[1]);
+    assert_eq!(
+        lines[3], "3 ; fork head B/C: check the B/C kinematics of the controller before running",
+        "the plugin's template"
+    );
     assert!(lines.len() > 2000, "{} lines", lines.len());
     assert!(lines.last().is_some_and(|l| l.ends_with("END PGM HYPAR-5AXIS MM")), "{:?}", lines.last());
 }
