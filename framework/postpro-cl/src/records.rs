@@ -317,6 +317,10 @@ fn ends_with_single_dollar(b: &[u8]) -> bool {
 /// NX Information-window lines: `Key<TAB>value` header lines before the first statement, and
 /// the `Tool Path Listing has N lines.` footer.
 fn is_listing_line(line: &str, seen_statement: bool) -> bool {
+    // Past the header only the footer can occur: a line that starts with `Tool`.
+    if seen_statement && !line.trim_start().starts_with("Tool Path Listing") {
+        return false;
+    }
     let t = line.trim();
     if let Some(rest) = t.strip_prefix("Tool Path Listing has ") {
         return rest
