@@ -445,15 +445,7 @@ fn rs274_accepts_the_linuxcnc_programs_and_reaches_our_targets() {
                 }
                 Ok((program.label, blocks, canon.sample))
             });
-            match result {
-                Ok((label, blocks, sample)) => {
-                    let _ = writeln!(report, "{label}: {blocks} blocks equal our targets");
-                    if report.lines().count() == 1 {
-                        let _ = writeln!(report, "{sample}");
-                    }
-                }
-                Err(e) => failures.push(e),
-            }
+            tally(result, &mut report, &mut failures);
         }
     }
     let _ = writeln!(std::io::stderr(), "{report}");
@@ -556,15 +548,7 @@ fn nc_gcode_interpreter_reads_the_siemens_programs_with_our_targets() {
                 }
                 Ok((program.label, blocks, read.sample))
             });
-            match result {
-                Ok((label, blocks, sample)) => {
-                    let _ = writeln!(report, "{label}: {blocks} blocks equal our targets");
-                    if report.lines().count() == 1 {
-                        let _ = writeln!(report, "{sample}");
-                    }
-                }
-                Err(e) => failures.push(e),
-            }
+            tally(result, &mut report, &mut failures);
         }
     }
     let _ = writeln!(std::io::stderr(), "{report}");
@@ -574,4 +558,17 @@ fn nc_gcode_interpreter_reads_the_siemens_programs_with_our_targets() {
         failures.len(),
         failures.join("\n")
     );
+}
+
+/// Adds one program's outcome to the report (with the first program's sample) or the failures.
+fn tally(result: Result<(String, usize, String), String>, report: &mut String, failures: &mut Vec<String>) {
+    match result {
+        Ok((label, blocks, sample)) => {
+            let _ = writeln!(report, "{label}: {blocks} blocks equal our targets");
+            if report.lines().count() == 1 {
+                let _ = writeln!(report, "{sample}");
+            }
+        }
+        Err(e) => failures.push(e),
+    }
 }
