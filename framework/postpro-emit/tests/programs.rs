@@ -91,6 +91,8 @@ fn real_five_axis_files_on_the_built_ins() {
 fn every_dialect_writes_the_example() {
     for d in ["siemens-840d", "fanuc", "heidenhain", "linuxcnc"] {
         let text = program(EXAMPLES[0], "mikron-ucp710", Mode::G1, Some(d));
+        let blank = text.lines().position(|l| l.trim().is_empty());
+        assert_eq!(blank, None, "{d}: blank line (0-based index) in the program");
         insta::assert_snapshot!(format!("dialect_{d}"), digest(&text));
     }
 }
