@@ -11,4 +11,4 @@ pub mod profile;
 
 pub use block::{BlockLimits, Limiter, block_limits};
 pub use corner::{blend_radius, corner_speed, interior_angle};
-pub use profile::{Profile, State};
+pub use profile::{Profile, State, speed_change};

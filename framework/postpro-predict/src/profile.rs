@@ -32,17 +32,7 @@ impl Profile {
     /// The fastest motion over `distance` (≥ 0) under the positive limits `vmax`, `amax`, `jmax`.
     pub fn rest_to_rest(distance: f64, vmax: f64, amax: f64, jmax: f64) -> Profile {
         let distance = distance.max(0.0);
-        // The distance taken to reach `v` from rest (and to stop from it), and the phases doing so.
-        let ramp = |v: f64| -> (f64, f64, f64) {
-            if v * jmax >= amax * amax {
-                let (t_jerk, t_accel) = (amax / jmax, v / amax - amax / jmax);
-                (v / 2.0 * (v / amax + amax / jmax), t_jerk, t_accel)
-            } else {
-                let t_jerk = (v / jmax).sqrt();
-                (v * t_jerk, t_jerk, 0.0)
-            }
-        };
-        let (ramp_distance, _, _) = ramp(vmax);
+        let (ramp_distance, _) = speed_change(0.0, vmax, amax, jmax);
         let (peak, cruise) = if 2.0 * ramp_distance <= distance {
             (vmax, (distance - 2.0 * ramp_distance) / vmax)
         } else {
@@ -56,8 +46,13 @@ impl Profile {
             };
             (peak, 0.0)
         };
-        let (_, t_jerk, t_accel) = ramp(peak);
-        let t_accel = t_accel.max(0.0);
+        // The phases reaching `peak` from rest: jerk phases of A/J around a constant acceleration,
+        // or two jerk phases of √(v/J) when Amax is not reached.
+        let (t_jerk, t_accel) = if peak * jmax >= amax * amax {
+            (amax / jmax, (peak / amax - amax / jmax).max(0.0))
+        } else {
+            ((peak / jmax).sqrt(), 0.0)
+        };
         Profile { jerk: jmax, phases: [t_jerk, t_accel, t_jerk, cruise, t_jerk, t_accel, t_jerk] }
     }
 
@@ -88,6 +83,16 @@ impl Profile {
     }
 }
 
+/// The fastest jerk-limited change of speed from `v0` to `v1` (both ≥ 0) under `amax`, `jmax`,
+/// starting and ending without acceleration: its `(distance, time)`. The acceleration is a
+/// symmetric trapezoid (or triangle), so the mean speed is `(v0 + v1) / 2`. The look-ahead uses it
+/// to know how early a slowdown must begin.
+pub fn speed_change(v0: f64, v1: f64, amax: f64, jmax: f64) -> (f64, f64) {
+    let dv = (v1 - v0).abs();
+    let time = if dv * jmax >= amax * amax { dv / amax + amax / jmax } else { 2.0 * (dv / jmax).sqrt() };
+    ((v0 + v1) / 2.0 * time, time)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -115,6 +120,19 @@ mod tests {
         assert!((profile.duration() - 2.25).abs() < 1e-12, "{}", profile.duration());
         let middle = profile.at(1.125);
         assert!((middle.v - 500.0).abs() < 1e-9 && middle.a == 0.0);
+    }
+
+    #[test]
+    fn a_speed_change_is_one_ramp_of_the_rest_to_rest_motion() {
+        // The long move above ramps 0 → 500 mm/s in 0.25 s over 62.5 mm.
+        let (distance, time) = speed_change(0.0, 500.0, 2500.0, 50_000.0);
+        assert!((distance - 62.5).abs() < 1e-12 && (time - 0.25).abs() < 1e-12, "{distance} {time}");
+        // Slowing down takes what speeding up takes; a small change never reaches Amax:
+        // 100 → 110 mm/s under J = 5000 mm/s³ takes 2 √(10 / 5000) = 0.08944 s over 9.391 mm.
+        assert_eq!(speed_change(110.0, 100.0, 2500.0, 5000.0), speed_change(100.0, 110.0, 2500.0, 5000.0));
+        let (distance, time) = speed_change(100.0, 110.0, 2500.0, 5000.0);
+        assert!((time - 0.089_443).abs() < 1e-6 && (distance - 105.0 * time).abs() < 1e-12, "{distance} {time}");
+        assert_eq!(speed_change(80.0, 80.0, 2500.0, 5000.0), (0.0, 0.0));
     }
 
     #[test]
