@@ -8,13 +8,17 @@
 //!   `tests/cl` (one input per diagnostic class: `err_*.cl`, `warn_*.cl`, and tricky valid
 //!   syntax in `ok_*.cl`), pinned with insta snapshots in `tests/snapshots/`.
 //!
-//! This library only holds the helpers those tests share: where the data lives.
+//! This library holds the helpers those tests share: where the data lives. The plugin tests of
+//! `postpro-plugins` and `postpro` use it too (as a dev-dependency) to build the plugins of
+//! `plugins/` once per test binary.
 //!
 //! Run with `cargo test -p tests`; after an intended change of the reader's output, review the
 //! snapshots with `cargo insta review` (or `INSTA_UPDATE=always cargo test -p tests`, then
 //! read the diff).
 
 use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
 
 /// The repository root (the workspace root).
 pub fn repo_root() -> PathBuf {
@@ -56,4 +60,42 @@ pub fn repo_relative(path: &Path) -> String {
     let path = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
     let rel = path.strip_prefix(&root).unwrap_or(&path);
     rel.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/")
+}
+
+/// The plugin packages of `plugins/`: the two examples and the broken fixtures.
+pub const PLUGIN_PACKAGES: [&str; 5] = [
+    "plugin-head-head",
+    "plugin-yaml-machines",
+    "fixture-plugin-wrong-abi",
+    "fixture-plugin-no-entry",
+    "fixture-plugin-misbehaving",
+];
+
+/// Builds every plugin package once, with the cargo running the tests, into the calling test's
+/// target directory and profile; returns that `target/<profile>` folder, which holds the
+/// libraries (and the `postpro` binary of the same build).
+///
+/// # Panics
+/// When the build fails (with cargo's output).
+pub fn built_plugins() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        // A test binary runs from `target/<profile>/deps/`.
+        let exe = std::env::current_exe().expect("the test's path");
+        let dir = exe.parent().and_then(Path::parent).expect("target/<profile>/deps/<test>").to_path_buf();
+        let mut cargo = Command::new(env!("CARGO"));
+        cargo.arg("build").arg("--target-dir").arg(dir.parent().expect("the target directory"));
+        match dir.file_name().and_then(|n| n.to_str()) {
+            Some("debug") | None => {}
+            Some(profile) => {
+                cargo.args(["--profile", profile]);
+            }
+        }
+        for p in PLUGIN_PACKAGES {
+            cargo.args(["-p", p]);
+        }
+        let out = cargo.current_dir(repo_root()).output().expect("cargo runs");
+        assert!(out.status.success(), "cargo build of the plugins failed:\n{}", String::from_utf8_lossy(&out.stderr));
+        dir
+    })
 }

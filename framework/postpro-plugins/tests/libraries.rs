@@ -10,8 +10,6 @@
 //!   definition) is a clear error, after which the next call works.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::sync::OnceLock;
 
 use nalgebra::{Point3, Unit, Vector3};
 use postpro_kin::{Kinematics, Pose, Solutions, solve, solver_for};
@@ -19,47 +17,9 @@ use postpro_machine::model::Machine;
 use postpro_machine::{Origin, Registry};
 use postpro_plugins::{CallFailure, PluginError, Plugins, Solver, library_file_name};
 
-const PACKAGES: [&str; 5] = [
-    "plugin-head-head",
-    "plugin-yaml-machines",
-    "fixture-plugin-wrong-abi",
-    "fixture-plugin-no-entry",
-    "fixture-plugin-misbehaving",
-];
-
-/// The folder this test's build writes to (`target/debug`): the test runs from `deps/` in it.
-fn profile_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("the test's path");
-    exe.parent().and_then(Path::parent).expect("target/<profile>/deps/<test>").to_path_buf()
-}
-
-/// Builds every plugin package once, with the cargo running the tests, into the same target
-/// directory and profile; returns the folder holding the libraries.
-fn built() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = profile_dir();
-        let target = dir.parent().expect("the target directory");
-        let mut cargo = Command::new(env!("CARGO"));
-        cargo.arg("build").arg("--target-dir").arg(target);
-        match dir.file_name().and_then(|n| n.to_str()) {
-            Some("debug") | None => {}
-            Some(profile) => {
-                cargo.args(["--profile", profile]);
-            }
-        }
-        for p in PACKAGES {
-            cargo.args(["-p", p]);
-        }
-        let out = cargo.current_dir(env!("CARGO_MANIFEST_DIR")).output().expect("cargo runs");
-        assert!(out.status.success(), "cargo build of the plugins failed:\n{}", String::from_utf8_lossy(&out.stderr));
-        dir
-    })
-}
-
 /// The library of a plugin package.
 fn library(package: &str) -> PathBuf {
-    let path = built().join(library_file_name(package));
+    let path = tests::built_plugins().join(library_file_name(package));
     assert!(path.is_file(), "{} was built", path.display());
     path
 }

@@ -10,58 +10,18 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
+
+use postpro_plugins::library_file_name;
 
 const EXAMPLE: &str = "examples/cl/hypar-5axis.cl";
-
-const PACKAGES: [&str; 5] = [
-    "plugin-head-head",
-    "plugin-yaml-machines",
-    "fixture-plugin-wrong-abi",
-    "fixture-plugin-no-entry",
-    "fixture-plugin-misbehaving",
-];
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// The folder the postpro binary is in: this test's `target/<profile>`.
-fn profile_dir() -> PathBuf {
-    Path::new(env!("CARGO_BIN_EXE_postpro")).parent().expect("the binary's folder").to_path_buf()
-}
-
-/// The library file name of a crate on this system (`libplugin_head_head.so`).
-fn file_name(package: &str) -> String {
-    format!("{}{}{}", std::env::consts::DLL_PREFIX, package.replace('-', "_"), std::env::consts::DLL_SUFFIX)
-}
-
-/// Builds every plugin package once, with the cargo running the tests, into the binary's target
-/// directory and profile.
-fn built() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = profile_dir();
-        let mut cargo = Command::new(env!("CARGO"));
-        cargo.arg("build").arg("--target-dir").arg(dir.parent().expect("the target directory"));
-        match dir.file_name().and_then(|n| n.to_str()) {
-            Some("debug") | None => {}
-            Some(profile) => {
-                cargo.args(["--profile", profile]);
-            }
-        }
-        for p in PACKAGES {
-            cargo.args(["-p", p]);
-        }
-        let out = cargo.current_dir(repo()).output().expect("cargo runs");
-        assert!(out.status.success(), "cargo build of the plugins failed:\n{}", String::from_utf8_lossy(&out.stderr));
-        dir
-    })
-}
-
 /// The library of a plugin package, as an argument.
 fn library(package: &str) -> String {
-    let path = built().join(file_name(package));
+    let path = tests::built_plugins().join(library_file_name(package));
     assert!(path.is_file(), "{} was built", path.display());
     path.to_str().expect("a UTF-8 path").to_string()
 }
@@ -290,7 +250,7 @@ fn misbehaving_machines_are_refused_one_by_one() {
 #[test]
 fn plugins_are_found_through_the_plugin_path() {
     let dir = temp_dir("path");
-    let copy = dir.join(file_name("plugin-head-head"));
+    let copy = dir.join(library_file_name("plugin-head-head"));
     std::fs::copy(library("plugin-head-head"), &copy).expect("copy");
     let binary = Path::new(env!("CARGO_BIN_EXE_postpro"));
     let o = run(binary, &["machines"], Some(&dir));
@@ -315,7 +275,7 @@ fn plugins_are_found_beside_the_binary() {
     let binary = dir.join(Path::new(env!("CARGO_BIN_EXE_postpro")).file_name().expect("name"));
     std::fs::copy(env!("CARGO_BIN_EXE_postpro"), &binary).expect("copy the binary");
     std::fs::create_dir_all(dir.join("plugins")).expect("plugins folder");
-    let copy = dir.join("plugins").join(file_name("plugin-yaml-machines"));
+    let copy = dir.join("plugins").join(library_file_name("plugin-yaml-machines"));
     std::fs::copy(library("plugin-yaml-machines"), &copy).expect("copy the plugin");
     let o = run(&binary, &["machines"], None);
     assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
