@@ -666,6 +666,18 @@ enum CaseChange {
     Mixed(u64),
 }
 
+impl CaseChange {
+    /// Lower, upper or mixed case for line `line`, drawn from `seed`.
+    fn per_line(seed: u64, line: usize) -> CaseChange {
+        let bits = (seed ^ line as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        match bits >> 62 {
+            0 => CaseChange::Lower,
+            1 => CaseChange::Upper,
+            _ => CaseChange::Mixed(bits),
+        }
+    }
+}
+
 /// Changes the case of the statement part of every statement line, except free-text statements
 /// and quoted strings. `mode(k)` says how for the k-th line.
 fn change_case(text: &str, mode: impl Fn(usize) -> CaseChange) -> String {
@@ -1036,17 +1048,8 @@ proptest! {
         all_lower in any::<bool>(),
     ) {
         let text = window(&file(name).text, start, WINDOW);
-        let changed = change_case(text, |l| {
-            if all_lower {
-                return CaseChange::Lower;
-            }
-            let bits = (seed ^ l as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            match bits >> 62 {
-                0 => CaseChange::Lower,
-                1 => CaseChange::Upper,
-                _ => CaseChange::Mixed(bits),
-            }
-        });
+        let changed =
+            change_case(text, |l| if all_lower { CaseChange::Lower } else { CaseChange::per_line(seed, l) });
         let how = Compare { without_comments: false, fold_case: true };
         same_path("case", &Source::new(name, text), &Source::new(name, changed), how)?;
     }
@@ -1109,14 +1112,7 @@ proptest! {
         let comments: Vec<(usize, String)> = comments.into_iter().map(|(g, c)| (*g.get(&gaps), c)).collect();
         let how = Compare { without_comments: true, fold_case: false };
         same_as_read("comment lines", original, &Source::new(name, insert_comments(text, &comments)), how)?;
-        let changed = change_case(text, |l| {
-            let bits = (seed ^ l as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            match bits >> 62 {
-                0 => CaseChange::Lower,
-                1 => CaseChange::Upper,
-                _ => CaseChange::Mixed(bits),
-            }
-        });
+        let changed = change_case(text, |l| CaseChange::per_line(seed, l));
         let how = Compare { without_comments: false, fold_case: true };
         same_as_read("case", original, &Source::new(name, changed), how)?;
     }
