@@ -21,8 +21,14 @@ fn bench(c: &mut Criterion) {
     group.throughput(Throughput::Elements(points as u64));
     group.sample_size(10);
     for (mode, label) in [(Mode::G1, "g1"), (Mode::InverseTime, "inverse_time"), (Mode::Bspline, "bspline")] {
-        let options =
-            Options { mode, program_name: "BENCH".into(), source_name: "big.cl".into(), block_numbers: false };
+        let options = Options {
+            mode,
+            program_name: "BENCH".into(),
+            source_name: "big.cl".into(),
+            block_numbers: false,
+            prediction: None,
+            annotations: Vec::new(),
+        };
         group.bench_function(label, |b| {
             b.iter(|| {
                 let path = read(&source);

@@ -165,8 +165,22 @@ pub struct Run<'a> {
 /// midpoints of the segments where the spline strays; `None` when it cannot (too few points,
 /// or still off after several refinements: the run is then written as G1).
 pub fn fit(kin: &dyn Kinematics, run: &Run<'_>, tolerance: f64, singular_cone: f64) -> Option<(Spline, Vec<Pose>)> {
+    fit_indexed(kin, run, tolerance, singular_cone).map(|(spline, poses, _)| (spline, poses))
+}
+
+/// [`fit`], also telling where each point of the run went: `index[i]` is the position of
+/// `run.joints[i]` among the points interpolated, which is also the index of its control point
+/// (global interpolation has one control point per point, the midpoints added before it shifting
+/// it on).
+pub fn fit_indexed(
+    kin: &dyn Kinematics,
+    run: &Run<'_>,
+    tolerance: f64,
+    singular_cone: f64,
+) -> Option<(Spline, Vec<Pose>, Vec<usize>)> {
     let mut joints = run.joints.to_vec();
     let mut poses = run.poses.to_vec();
+    let mut index: Vec<usize> = (0..joints.len()).collect();
     let mut sols = Solutions::new();
     for _ in 0..6 {
         let params = chord_params(&poses);
@@ -183,7 +197,11 @@ pub fn fit(kin: &dyn Kinematics, run: &Run<'_>, tolerance: f64, singular_cone: f
             }
         }
         if worst.is_empty() {
-            return Some((spline, poses));
+            return Some((spline, poses, index));
+        }
+        // A midpoint goes in after point `s`: each point after it moves on by the midpoints before it.
+        for i in index.iter_mut() {
+            *i += worst.partition_point(|&s| s < *i);
         }
         for &s in worst.iter().rev() {
             let (p, q) = (poses[s], poses[s + 1]);

@@ -11,6 +11,10 @@
 //! Δt = part-space length / feed, blocks split to respect the controller's minimum F),
 //! `tcp` (tool tip and vector; the controller solves the kinematics), `bspline` (Siemens
 //! `BSPLINE SD=3` through the axis positions of each run of feed moves, within tolerance).
+//!
+//! The feed prediction, when there is one, reaches the program through [`Options`]: its summary
+//! as `header.prediction`, its slowdowns as [`Annotation`]s, comments written before the motion
+//! of the steps they concern.
 
 pub mod bspline;
 mod dialect;
@@ -21,8 +25,8 @@ mod render;
 pub use dialect::{DIALECTS, Dialect, TcpStyle, dialect};
 pub use format::{number, push_number};
 pub use program::{
-    AxisInfo, Block, BlockSink, Header, Mode, Options, Prediction, Program, Tool, Word, build, build_blocks,
-    check_mode, header, tools,
+    Annotation, AxisInfo, Block, BlockSink, Header, Mode, Options, Prediction, Program, Tool, Word, build,
+    build_blocks, check_mode, clean_comment, header, tools,
 };
 pub use render::{TEMPLATES, builtin_template, render, write_program};
 

@@ -49,6 +49,28 @@ pub struct Options {
     pub source_name: String,
     /// Number the blocks (`N10`, `N20`, …).
     pub block_numbers: bool,
+    /// The prediction summary for the header (`header.prediction`); `None` without prediction.
+    pub prediction: Option<Prediction>,
+    /// Comments to write before the motion of given steps (a predicted slowdown, its cause),
+    /// sorted by step; given out of order, they are written in the order of their steps all the
+    /// same (ties keep their order). See [`Annotation`].
+    pub annotations: Vec<Annotation>,
+}
+
+/// A comment written into the program before the motion of one step of the solved tool path.
+///
+/// It becomes a [`Block::Comment`] (cleaned and cut to the line length like every comment)
+/// immediately before the first block the step writes. Where the step writes none of its own,
+/// it goes where that block would stand: a linearization point in TCP mode, a feed move in a
+/// `BSPLINE` run (before the first control point of the span that ends at the step), a move that
+/// changes no axis. An annotation whose step is past the last one is written after the last
+/// motion. None is ever dropped.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Annotation {
+    /// Index into [`Solved::steps`].
+    pub step: usize,
+    /// The comment text (without the dialect's comment characters).
+    pub text: String,
 }
 
 /// The whole template context.
@@ -96,12 +118,21 @@ pub struct Header {
 }
 
 /// The prediction summary a header may show.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Prediction {
     /// Predicted cycle time (s).
     pub cycle_time: f64,
     /// Time lost to slowdowns (s).
     pub time_lost: f64,
+    /// The slowdown threshold, a fraction of the programmed feed (`0.8`).
+    pub threshold: f64,
+    /// The fraction of the feed path length (0…1) predicted below `threshold` × the programmed feed.
+    pub share_below: f64,
+    /// The feed planner the prediction used (`inverse-time`, `vpop`). In the header it is cleaned
+    /// of the characters the dialect's comments cannot hold.
+    pub planner: String,
+    /// The number of slowdown comments written into the program (annotations).
+    pub slowdowns: usize,
 }
 
 /// An axis of the machine.
@@ -291,6 +322,19 @@ impl BlockSink for Vec<Block> {
     }
 }
 
+/// Text made fit for a comment of the dialect: parentheses become brackets where the dialect's
+/// comments are parenthesised, other forbidden and control characters blanks.
+pub fn clean_comment(dialect: &Dialect, text: &str) -> String {
+    text.chars()
+        .map(|c| match c {
+            '(' if dialect.comment_forbidden.contains(c) => '[',
+            ')' if dialect.comment_forbidden.contains(c) => ']',
+            c if dialect.comment_forbidden.contains(c) || c.is_control() => ' ',
+            c => c,
+        })
+        .collect()
+}
+
 /// Checks that the dialect has the mode.
 pub fn check_mode(dialect: &Dialect, mode: Mode) -> Result<(), EmitError> {
     let supported = match mode {
@@ -342,7 +386,10 @@ pub fn header(path: &ToolPath, solved: &Solved, machine: &Machine, dialect: &Dia
         linearized_points: solved.inserted,
         tolerance: machine.policy.linearization_tolerance,
         decisions: solved.decisions.len(),
-        prediction: None,
+        prediction: options
+            .prediction
+            .as_ref()
+            .map(|p| Prediction { planner: clean_comment(dialect, &p.planner), ..p.clone() }),
     }
 }
 
@@ -395,7 +442,7 @@ pub fn build_blocks(
                         b.decision(&decisions[d]);
                         d += 1;
                     }
-                    b.step(&solved.steps[k], motion)?;
+                    b.step(k, &solved.steps[k], motion)?;
                     k += 1;
                 }
             }
@@ -403,7 +450,7 @@ pub fn build_blocks(
         }
     }
     while k < solved.steps.len() {
-        b.step(&solved.steps[k], Motion::Rapid)?;
+        b.step(k, &solved.steps[k], Motion::Rapid)?;
         k += 1;
     }
     b.finish()
@@ -435,6 +482,13 @@ struct Builder<'a> {
     last_step: Option<Step>,
     /// Words the reader does not know: carried as comments.
     unknown: std::collections::BTreeSet<String>,
+    /// The annotations, as indices into `options.annotations` in order of step.
+    notes: Vec<usize>,
+    /// The next one of `notes` to write.
+    next_note: usize,
+    /// BSPLINE mode: the annotations held for the run, as (run index, annotation index); one
+    /// with the index `run.len()` goes after the run.
+    run_notes: Vec<(usize, usize)>,
 }
 
 impl<'a> Builder<'a> {
@@ -459,6 +513,13 @@ impl<'a> Builder<'a> {
             run_start: None,
             last_step: None,
             unknown: std::collections::BTreeSet::new(),
+            notes: {
+                let mut notes: Vec<usize> = (0..options.annotations.len()).collect();
+                notes.sort_by_key(|&i| options.annotations[i].step);
+                notes
+            },
+            next_note: 0,
+            run_notes: Vec::new(),
         }
     }
 
@@ -478,17 +539,9 @@ impl<'a> Builder<'a> {
         })
     }
 
-    /// Text made fit for a comment of the dialect: parentheses become brackets where the
-    /// dialect's comments are parenthesised, other forbidden and control characters blanks.
+    /// Text made fit for a comment of the dialect (see [`clean_comment`]).
     fn clean(&self, text: &str) -> String {
-        text.chars()
-            .map(|c| match c {
-                '(' if self.dialect.comment_forbidden.contains(c) => '[',
-                ')' if self.dialect.comment_forbidden.contains(c) => ']',
-                c if self.dialect.comment_forbidden.contains(c) || c.is_control() => ' ',
-                c => c,
-            })
-            .collect()
+        clean_comment(self.dialect, text)
     }
 
     fn comment(&mut self, text: &str) {
@@ -503,6 +556,49 @@ impl<'a> Builder<'a> {
         }
         let n = self.n();
         self.push(Block::Comment { n, text: clean.trim_end().to_string() });
+    }
+
+    /// The annotations of the steps up to `k` not yet written.
+    fn take_notes(&mut self, k: usize) -> std::ops::Range<usize> {
+        let annotations = &self.options.annotations;
+        let start = self.next_note;
+        let end = start + self.notes[start..].partition_point(|&i| annotations[i].step <= k);
+        self.next_note = end;
+        start..end
+    }
+
+    /// Writes annotation `i` as a comment.
+    fn note(&mut self, i: usize) {
+        let options = self.options;
+        if let Some(a) = options.annotations.get(i) {
+            self.comment(&a.text);
+        }
+    }
+
+    /// Writes the annotations of the steps up to `k` not yet written.
+    fn notes_upto(&mut self, k: usize) {
+        for at in self.take_notes(k) {
+            self.note(self.notes[at]);
+        }
+    }
+
+    /// Holds the annotations of the steps up to `k` for the run, before its point `r`.
+    fn hold_notes(&mut self, k: usize, r: usize) {
+        for at in self.take_notes(k) {
+            let i = self.notes[at];
+            self.run_notes.push((r, i));
+        }
+    }
+
+    /// Writes the annotations `held` for a run from `*next` on, up to those of run index `r`.
+    fn held_notes_upto(&mut self, held: &[(usize, usize)], next: &mut usize, r: usize) {
+        while let Some(&(at, i)) = held.get(*next) {
+            if at > r {
+                break;
+            }
+            *next += 1;
+            self.note(i);
+        }
     }
 
     fn decision(&mut self, noted: &Noted) {
@@ -576,7 +672,7 @@ impl<'a> Builder<'a> {
         words
     }
 
-    fn step(&mut self, step: &Step, motion: Motion) -> Result<(), EmitError> {
+    fn step(&mut self, k: usize, step: &Step, motion: Motion) -> Result<(), EmitError> {
         if self.options.mode == Mode::Bspline {
             let feed = match motion {
                 Motion::Feed(f)
@@ -591,7 +687,11 @@ impl<'a> Builder<'a> {
             };
             match feed {
                 // The spline goes through the CL points; it is checked against the tolerance itself.
-                Some(_) if step.kind == StepKind::Linearized => return Ok(()),
+                // The step's annotations go with the next point queued (whose span holds it).
+                Some(_) if step.kind == StepKind::Linearized => {
+                    self.hold_notes(k, self.run.len());
+                    return Ok(());
+                }
                 Some(f) => {
                     let mut text = String::new();
                     push_number(&mut text, f.value, self.dialect.feed_decimals, false);
@@ -601,6 +701,7 @@ impl<'a> Builder<'a> {
                     if self.run.is_empty() {
                         self.run_start = self.last_step;
                     }
+                    self.hold_notes(k, self.run.len());
                     self.run.push((*step, Some(text)));
                     self.last_step = Some(*step);
                     return Ok(());
@@ -609,6 +710,8 @@ impl<'a> Builder<'a> {
             }
         }
         self.last_step = Some(*step);
+        // Before anything the step writes (or where it would, when it writes nothing).
+        self.notes_upto(k);
         // In TCP mode the controller interpolates in the part frame: no linearization points.
         if self.options.mode == Mode::Tcp && step.kind == StepKind::Linearized {
             return Ok(());
@@ -825,8 +928,15 @@ impl<'a> Builder<'a> {
 
     /// Writes the queued run of feed moves as a B-spline, or as G1 moves when it is too short or
     /// the spline cannot follow it within the tolerance.
+    ///
+    /// The annotations held for the run go before the first control point of the span that ends
+    /// at their point (after `BSPLINE`), or before their point's block when written as G1; those
+    /// held past the run's last point go after it.
     fn flush_run(&mut self) {
+        let held = std::mem::take(&mut self.run_notes);
+        let mut next = 0;
         if self.run.is_empty() {
+            self.held_notes_upto(&held, &mut next, usize::MAX);
             return;
         }
         let run = std::mem::take(&mut self.run);
@@ -836,14 +946,26 @@ impl<'a> Builder<'a> {
             let poses: Vec<Pose> = std::iter::once(start.pose).chain(run.iter().map(|(s, _)| s.pose)).collect();
             let tolerance = self.machine.policy.linearization_tolerance;
             let cone = self.machine.policy.singular_cone;
-            crate::bspline::fit(self.kin, &crate::bspline::Run { joints: &joints, poses: &poses }, tolerance, cone)
+            crate::bspline::fit_indexed(
+                self.kin,
+                &crate::bspline::Run { joints: &joints, poses: &poses },
+                tolerance,
+                cone,
+            )
         });
         let feed = run[0].1.clone().unwrap_or_default();
         match fitted {
-            Some((spline, _)) => {
+            Some((spline, _, index)) => {
                 let n = self.n();
                 self.push(Block::BsplineOn { n, degree: crate::bspline::DEGREE, feed });
+                // Run point `r` is point `r + 1` of the fit (the start is point 0): its span
+                // begins with the control point after that of the point before it.
+                let mut r = 0;
                 for (k, control) in spline.control.iter().enumerate().skip(1) {
+                    while r < run.len() && index.get(r).is_some_and(|&before| k > before) {
+                        self.held_notes_upto(&held, &mut next, r);
+                        r += 1;
+                    }
                     let step = Step { joints: *control, ..run[run.len() - 1].0 };
                     let words = self.axis_words(&step, true);
                     let mut pl = String::new();
@@ -856,7 +978,8 @@ impl<'a> Builder<'a> {
                 self.last_feed = None;
             }
             None => {
-                for (step, feed) in &run {
+                for (r, (step, feed)) in run.iter().enumerate() {
+                    self.held_notes_upto(&held, &mut next, r);
                     let words = self.axis_words(step, false);
                     let feed = feed.clone().filter(|f| self.last_feed.as_deref() != Some(f.as_str()));
                     if let Some(f) = &feed {
@@ -867,10 +990,13 @@ impl<'a> Builder<'a> {
                 }
             }
         }
+        self.held_notes_upto(&held, &mut next, usize::MAX);
     }
 
     fn finish(mut self) -> Result<(), EmitError> {
         self.flush_run();
+        // Annotations of steps past the last one: after the last motion, never dropped.
+        self.notes_upto(usize::MAX);
         if self.tcp_on {
             let n = self.n();
             self.push(Block::TcpOff { n });

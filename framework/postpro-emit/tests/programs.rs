@@ -37,7 +37,14 @@ fn program(relative: &str, machine_name: &str, mode: Mode, dialect_name: Option<
     let kin = solver_for(&m);
     let solved = solve(kin.as_ref(), &path, &m.policy).unwrap_or_else(|e| panic!("{relative} on {machine_name}: {e}"));
     let d = dialect(dialect_name.unwrap_or(&m.dialect)).expect("dialect");
-    let options = Options { mode, program_name: "TEST".into(), source_name: relative.into(), block_numbers: false };
+    let options = Options {
+        mode,
+        program_name: "TEST".into(),
+        source_name: relative.into(),
+        block_numbers: false,
+        prediction: None,
+        annotations: Vec::new(),
+    };
     let p = build(&path, &solved, kin.as_ref(), d, &options).expect("builds");
     render(&p, d.name, builtin_template(d.name).expect("template")).expect("renders")
 }
@@ -244,7 +251,14 @@ fn unsupported_modes_are_errors() {
     let m = machine("mikron");
     let kin = solver_for(&m);
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
-    let options = Options { mode: Mode::Tcp, program_name: "T".into(), source_name: "t".into(), block_numbers: false };
+    let options = Options {
+        mode: Mode::Tcp,
+        program_name: "T".into(),
+        source_name: "t".into(),
+        block_numbers: false,
+        prediction: None,
+        annotations: Vec::new(),
+    };
     let err = build(&path, &solved, kin.as_ref(), dialect("linuxcnc").expect("dialect"), &options).expect_err("no TCP");
     assert_eq!(err.to_string(), "the linuxcnc dialect has no tcp mode");
     let options = Options { mode: Mode::InverseTime, ..options };
@@ -270,8 +284,14 @@ fn streaming_equals_the_whole_rendering() {
         for d in postpro_emit::DIALECTS {
             for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp, Mode::Bspline] {
                 for block_numbers in [false, true] {
-                    let options =
-                        Options { mode, program_name: "TEST".into(), source_name: "t.cl".into(), block_numbers };
+                    let options = Options {
+                        mode,
+                        program_name: "TEST".into(),
+                        source_name: "t.cl".into(),
+                        block_numbers,
+                        prediction: None,
+                        annotations: Vec::new(),
+                    };
                     let template = builtin_template(d.name).expect("template");
                     let Ok(program) = build(&path, &solved, kin.as_ref(), d, &options) else { continue };
                     let whole = render(&program, d.name, template).expect("renders");
@@ -381,7 +401,14 @@ fn user_templates_are_strict_and_lines_are_bounded() {
     let kin = solver_for(&m);
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let d = dialect("fanuc").expect("dialect");
-    let options = Options { mode: Mode::G1, program_name: "T".into(), source_name: "t".into(), block_numbers: false };
+    let options = Options {
+        mode: Mode::G1,
+        program_name: "T".into(),
+        source_name: "t".into(),
+        block_numbers: false,
+        prediction: None,
+        annotations: Vec::new(),
+    };
     let write = |template: &str| {
         let mut out = Vec::new();
         postpro_emit::write_program(&path, &solved, kin.as_ref(), d, &options, "user.j2", template, &mut out)
@@ -407,8 +434,14 @@ fn a_feed_out_of_range_is_limited_and_noted() {
     let kin = solver_for(&m);
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let d = dialect("fanuc").expect("dialect");
-    let options =
-        Options { mode: Mode::G1, program_name: "T".into(), source_name: "fast.cl".into(), block_numbers: false };
+    let options = Options {
+        mode: Mode::G1,
+        program_name: "T".into(),
+        source_name: "fast.cl".into(),
+        block_numbers: false,
+        prediction: None,
+        annotations: Vec::new(),
+    };
     let text = render(
         &build(&path, &solved, kin.as_ref(), d, &options).expect("builds"),
         d.name,

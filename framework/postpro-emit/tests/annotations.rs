@@ -1,0 +1,415 @@
+//! The feed prediction in the program: the header lines of `header.prediction` and the comments
+//! of `Options::annotations`, in every dialect and mode, on a small 5-axis path (an arc, a
+//! reorientation the Mikron's joint interpolation must linearize, a retract). Each annotation is
+//! found exactly once, in order, between the motion of the step before it and the motion of its
+//! step, read back from the program text (BSPLINE: before the control points of its step's span).
+//! One program per dialect is pinned whole by insta.
+
+use std::collections::HashMap;
+
+use postpro_cl::{Source, ToolPath, read};
+use postpro_emit::bspline::{DEGREE, Spline};
+use postpro_emit::{Annotation, Dialect, Mode, Options, Prediction, build, builtin_template, dialect, render};
+use postpro_kin::{Joints, Kinematics, Solved, Step, StepKind, solve, solver_for};
+use postpro_machine::Registry;
+use postpro_machine::model::{AxisKind, Machine};
+
+/// Rapid in, plunge, an arc of 16 points at F2000 (one BSPLINE run), a 20° reorientation at F1000
+/// (linearized on the Mikron), a short line at F2000, a rapid retract.
+fn cl_text() -> String {
+    let mut cl = String::from(
+        "PARTNO/ANNOTATED TEST\nLOAD/TOOL,1,ADJUST,1\nSPINDL/RPM,12000,CLW\nRAPID\n\
+         GOTO/20.0000,0.0000,20.0000,0.0000000,0.0000000,1.0000000\nFEDRAT/MMPM,500\nGOTO/20.0000,0.0000,0.0000\n\
+         FEDRAT/MMPM,2000\n",
+    );
+    for i in 1..=16 {
+        let t = f64::from(i) / 50.0;
+        cl.push_str(&format!("GOTO/{:.4},{:.4},0.0000\n", 20.0 + 50.0 * t.sin(), 50.0 - 50.0 * t.cos()));
+    }
+    let (x, y) = (20.0 + 50.0 * 0.32f64.sin(), 50.0 - 50.0 * 0.32f64.cos());
+    cl.push_str(&format!("FEDRAT/MMPM,1000\nGOTO/{:.4},{:.4},0.0000,0.0000000,0.3420201,0.9396926\n", x + 2.0, y));
+    cl.push_str("FEDRAT/MMPM,2000\n");
+    for i in 1..=5 {
+        cl.push_str(&format!("GOTO/{:.4},{:.4},0.0000\n", x + 2.0 + f64::from(i), y));
+    }
+    cl.push_str(&format!("RAPID\nGOTO/{:.4},{:.4},30.0000\nEND\nFINI\n", x + 7.0, y));
+    cl
+}
+
+fn machine() -> Machine {
+    Registry::builtin().expect("built-ins").find("mikron-ucp710").expect("machine").machine.clone()
+}
+
+fn prediction() -> Prediction {
+    Prediction {
+        cycle_time: 61.23,
+        time_lost: 3.456,
+        threshold: 0.8,
+        share_below: 0.1234,
+        planner: "vpop".into(),
+        slowdowns: 2,
+    }
+}
+
+/// The cases: every dialect in every mode it has (BSPLINE is Siemens's only).
+const CASES: &[(&str, &[Mode])] = &[
+    ("siemens-840d", &[Mode::G1, Mode::InverseTime, Mode::Tcp, Mode::Bspline]),
+    ("fanuc", &[Mode::G1, Mode::InverseTime, Mode::Tcp]),
+    ("heidenhain", &[Mode::G1, Mode::Tcp]),
+    ("linuxcnc", &[Mode::G1, Mode::InverseTime]),
+];
+
+/// The program pinned per dialect.
+const PINNED: &[(&str, Mode)] =
+    &[("siemens-840d", Mode::Bspline), ("fanuc", Mode::Tcp), ("heidenhain", Mode::G1), ("linuxcnc", Mode::InverseTime)];
+
+struct Fixture {
+    path: ToolPath,
+    solved: Solved,
+    kin: Box<dyn Kinematics>,
+    machine: Machine,
+}
+
+fn fixture() -> Fixture {
+    fixture_of(Source::new("annotated.cl", cl_text()))
+}
+
+fn fixture_of(src: Source) -> Fixture {
+    let path = read(&src);
+    assert!(!path.has_errors(), "the test path reads");
+    let machine = machine();
+    let kin = solver_for(&machine);
+    let solved = solve(kin.as_ref(), &path, &machine.policy).expect("solves");
+    Fixture { path, solved, kin, machine }
+}
+
+/// The annotations: a CL feed step inside the arc, a point added by linearization, the rapid
+/// retract, and one past the last step.
+fn annotations(solved: &Solved) -> Vec<Annotation> {
+    let steps = &solved.steps;
+    let cl: Vec<usize> = (0..steps.len()).filter(|&k| steps[k].kind == StepKind::Cl).collect();
+    let feed_step = cl[7]; // the rapid, the plunge, then the arc's sixth point
+    let linearized = steps.iter().position(|s| s.kind == StepKind::Linearized).expect("a linearized step");
+    let retract = steps.len() - 1;
+    assert!(steps[retract].rapid, "the last step is the rapid retract");
+    assert!(feed_step < linearized, "the arc comes before the reorientation");
+    vec![
+        Annotation { step: feed_step, text: "slowdown one: 62 percent of F on the arc".into() },
+        Annotation { step: linearized, text: "slowdown two: on a linearized point (A limits)".into() },
+        Annotation { step: retract, text: "note three: before the retract".into() },
+        Annotation { step: steps.len() + 3, text: "note four: past the last step".into() },
+    ]
+}
+
+fn options(mode: Mode, solved: &Solved, block_numbers: bool) -> Options {
+    Options {
+        mode,
+        program_name: "ANNOTATED".into(),
+        source_name: "annotated.cl".into(),
+        block_numbers,
+        prediction: Some(prediction()),
+        annotations: annotations(solved),
+    }
+}
+
+/// The program, rendered whole and streamed (they must agree).
+fn program(f: &Fixture, d: &Dialect, options: &Options) -> String {
+    let template = builtin_template(d.name).expect("template");
+    let whole = render(&build(&f.path, &f.solved, f.kin.as_ref(), d, options).expect("builds"), d.name, template)
+        .expect("renders");
+    let mut streamed = Vec::new();
+    postpro_emit::write_program(&f.path, &f.solved, f.kin.as_ref(), d, options, d.name, template, &mut streamed)
+        .expect("writes");
+    assert!(whole == String::from_utf8(streamed).expect("UTF-8"), "{} {:?}: streamed ≠ whole", d.name, options.mode);
+    whole
+}
+
+/// The position words a mode writes for a step: the axis values, or the tool tip in TCP mode.
+fn position(step: &Step, mode: Mode, machine: &Machine) -> Vec<(String, f64)> {
+    if mode == Mode::Tcp {
+        let t = step.pose.tip;
+        return vec![("X".into(), t.x), ("Y".into(), t.y), ("Z".into(), t.z)];
+    }
+    machine
+        .axes
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let v = if a.kind == AxisKind::Rotary { step.joints[i].to_degrees() } else { step.joints[i] };
+            (a.letter.clone(), v)
+        })
+        .collect()
+}
+
+/// Whether the mode writes a block for the step itself (TCP and BSPLINE skip linearization points).
+fn written(step: &Step, mode: Mode) -> bool {
+    !(matches!(mode, Mode::Tcp | Mode::Bspline) && step.kind == StepKind::Linearized)
+}
+
+/// The program read back: the position words in force after each line, and which lines move.
+struct ReadBack {
+    /// `state[i]`: the words in force after line `i`.
+    state: Vec<HashMap<String, f64>>,
+    motion: Vec<bool>,
+}
+
+fn read_back(text: &str, letters: &[String]) -> ReadBack {
+    let mut current: HashMap<String, f64> = HashMap::new();
+    let (mut state, mut motion) = (Vec::new(), Vec::new());
+    for line in text.lines() {
+        let code = line.split(['(', ';']).next().unwrap_or("");
+        let mut moved = false;
+        for token in code.split_whitespace() {
+            let (letter, number) = match token.split_once('=') {
+                Some((l, n)) => (l, n),
+                None => token.split_at(token.find(|c: char| !c.is_ascii_alphabetic()).unwrap_or(token.len())),
+            };
+            if let (true, Ok(v)) = (letters.iter().any(|l| l == letter), number.parse::<f64>()) {
+                current.insert(letter.to_string(), v);
+                moved = true;
+            }
+        }
+        state.push(current.clone());
+        motion.push(moved);
+    }
+    ReadBack { state, motion }
+}
+
+/// The spline between the lines `open` (`BSPLINE`) and `close` (`G1`), in the written units,
+/// rebuilt as `bspline_stays_within_tolerance_of_the_cl_points` does in `programs.rs`.
+fn spline_of(lines: &[&str], back: &ReadBack, letters: &[String], open: usize, close: usize) -> Spline {
+    let joints = |i: usize| Joints::from_slice(&letters.iter().map(|l| back.state[i][l]).collect::<Vec<_>>());
+    let mut control = vec![joints(open - 1)];
+    let mut pls = Vec::new();
+    for (i, line) in lines.iter().enumerate().take(close).skip(open + 1) {
+        if let Some(pl) = line.split_whitespace().find_map(|t| t.strip_prefix("PL=")) {
+            control.push(joints(i));
+            pls.push(pl.parse::<f64>().expect("PL"));
+        }
+    }
+    let spans = &pls[1..pls.len() - 1];
+    let total: f64 = spans.iter().sum();
+    let mut knots = vec![0.0; DEGREE + 1];
+    let mut t = 0.0;
+    for s in &spans[..spans.len() - 1] {
+        t += s;
+        knots.push(t);
+    }
+    knots.extend(std::iter::repeat_n(total, DEGREE + 1));
+    Spline { control, knots }
+}
+
+/// The control point whose Greville abscissa is nearest to the parameter where the spline comes
+/// nearest to `point`.
+fn nearest_control(spline: &Spline, point: &Joints) -> usize {
+    let (lo, hi) = spline.domain();
+    let samples = 50 * spline.control.len();
+    let distance = |u: f64| {
+        let q = spline.at(u);
+        q.as_slice().iter().zip(point.as_slice()).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt()
+    };
+    let u = (0..=samples)
+        .map(|s| lo + (hi - lo) * s as f64 / samples as f64)
+        .min_by(|a, b| distance(*a).total_cmp(&distance(*b)))
+        .unwrap_or(lo);
+    // Refined between the neighbouring samples.
+    let (mut a, mut b) = (u - (hi - lo) / samples as f64, u + (hi - lo) / samples as f64);
+    for _ in 0..60 {
+        let (m1, m2) = (a + (b - a) / 3.0, b - (b - a) / 3.0);
+        if distance(m1) < distance(m2) { b = m2 } else { a = m1 }
+    }
+    let u = (a + b) / 2.0;
+    assert!(distance(u) < 1e-2, "the spline passes the point ({} off)", distance(u));
+    let greville = |j: usize| spline.knots[j + 1..=j + DEGREE].iter().sum::<f64>() / DEGREE as f64;
+    (0..spline.control.len()).min_by(|&a, &b| (greville(a) - u).abs().total_cmp(&(greville(b) - u).abs())).unwrap_or(0)
+}
+
+fn at(state: &HashMap<String, f64>, words: &[(String, f64)]) -> bool {
+    words.iter().all(|(l, v)| state.get(l).is_some_and(|s| (s - v).abs() < 2e-3))
+}
+
+/// Checks the place of every annotation of `options` in its program; returns how many stand in
+/// a spline the fit refined (more control points than points).
+fn check(text: &str, f: &Fixture, d: &Dialect, options: &Options, label: &str) -> usize {
+    let (steps, mode) = (&f.solved.steps, options.mode);
+    let letters: Vec<String> = position(&steps[0], mode, &f.machine).into_iter().map(|(l, _)| l).collect();
+    let back = read_back(text, &letters);
+    let lines: Vec<&str> = text.lines().collect();
+    let pos = |k: usize| position(&steps[k], mode, &f.machine);
+    let mut last = 0;
+    let mut refined = 0;
+    for a in &options.annotations {
+        // As the dialect writes it (Fanuc and LinuxCNC: brackets for parentheses).
+        let clean = postpro_emit::clean_comment(d, &a.text);
+        let found: Vec<usize> = (0..lines.len()).filter(|&i| lines[i].contains(clean.as_str())).collect();
+        assert_eq!(found.len(), 1, "{label}: `{}` is written once\n{text}", a.text);
+        let c = found[0];
+        assert!(c > last, "{label}: `{}` comes after the annotations of the steps before it\n{text}", a.text);
+        last = c;
+        if a.step >= steps.len() {
+            // After the last motion, before the end of the program.
+            assert!(back.motion[c..].iter().all(|m| !m), "{label}: `{}` after every motion\n{text}", a.text);
+            continue;
+        }
+        let k = a.step;
+        // The motion the comment precedes: its own step's, or the next written step's.
+        let next = (k..steps.len()).find(|&j| written(&steps[j], mode)).expect("a written step after");
+        let prev = (0..k).rev().find(|&j| written(&steps[j], mode));
+        let spline = (mode == Mode::Bspline)
+            .then(|| {
+                let open = (0..c).rev().find(|&i| lines[i].contains("BSPLINE") || lines[i].ends_with("G1"))?;
+                lines[open].contains("BSPLINE").then_some(open)
+            })
+            .flatten();
+        if let Some(open) = spline {
+            // Inside a spline: after the control points of the run's points before the step.
+            let close = (c..lines.len()).find(|&i| lines[i].ends_with("G1")).expect("the spline ends");
+            let before = &back.state[open - 1];
+            let start = (0..k).rev().find(|&j| written(&steps[j], mode) && at(before, &pos(j))).expect("run start");
+            let end = (start..steps.len())
+                .rev()
+                .find(|&j| written(&steps[j], mode) && at(&back.state[close], &pos(j)))
+                .expect("run end");
+            assert!(start < k && k <= end, "{label}: step {k} in the run {start}..={end}");
+            let points = (start + 1..=end).filter(|&j| written(&steps[j], mode)).count();
+            let controls = (open + 1..close).filter(|&i| back.motion[i]).count();
+            let r = (start + 1..k).filter(|&j| written(&steps[j], mode)).count();
+            let ahead = (open + 1..c).filter(|&i| back.motion[i]).count();
+            // One control point per point of the run, and one per midpoint the fit adds.
+            assert!(controls >= points, "{label}: {controls} control points for {points} points");
+            assert!(
+                r <= ahead && ahead <= r + controls - points,
+                "{label}: `{}` after {ahead} control points, {r} points of the run before it\n{text}",
+                a.text
+            );
+            // Exactly: before the control point after the one of the run's point before the step
+            // (the start, or a CL point), found on the spline rebuilt from the program: the one
+            // whose Greville abscissa is nearest to the parameter where the spline passes it.
+            let spline = spline_of(&lines, &back, &letters, open, close);
+            let previous = (start..k).rev().find(|&j| written(&steps[j], mode)).unwrap_or(start);
+            let values: Vec<f64> = pos(previous).into_iter().map(|(_, v)| v).collect();
+            let own = nearest_control(&spline, &Joints::from_slice(&values));
+            assert_eq!(ahead, own, "{label}: `{}` right after the control point of step {previous}\n{text}", a.text);
+            refined += usize::from(controls > points);
+            continue;
+        }
+        // After the previous step's motion: the position in force is that step's (none before the first)…
+        match prev {
+            Some(prev) => {
+                assert!(at(&back.state[c], &pos(prev)), "{label}: `{}` after step {prev}'s motion\n{text}", a.text);
+            }
+            None => assert!(back.motion[..c].iter().all(|m| !m), "{label}: `{}` before any motion\n{text}", a.text),
+        }
+        // …and the next position reached is the step's (or, when it writes none, the next one's).
+        let reached = (c + 1..lines.len()).find(|&i| back.motion[i] && at(&back.state[i], &pos(next)));
+        let reached = reached.unwrap_or_else(|| panic!("{label}: step {next} reached after `{}`\n{text}", a.text));
+        for i in c + 1..reached {
+            let other = (0..steps.len()).find(|&j| j != next && Some(j) != prev && at(&back.state[i], &pos(j)));
+            assert!(other.is_none(), "{label}: step {other:?} reached between `{}` and step {next}\n{text}", a.text);
+        }
+    }
+    refined
+}
+
+#[test]
+fn annotations_stand_before_the_motion_of_their_step_in_every_dialect_and_mode() {
+    let f = fixture();
+    assert!(f.solved.inserted > 0, "the reorientation is linearized");
+    for (dialect_name, modes) in CASES {
+        let d = dialect(dialect_name).expect("dialect");
+        for &mode in *modes {
+            for block_numbers in [false, true] {
+                let label = format!("{dialect_name} {} {}", mode.name(), if block_numbers { "N" } else { "-" });
+                let options = options(mode, &f.solved, block_numbers);
+                let text = program(&f, d, &options);
+                assert_eq!(text.lines().position(|l| l.trim().is_empty()), None, "{label}: a blank line\n{text}");
+                for line in text.lines() {
+                    assert!(line.len() <= d.max_line, "{label}: line too long");
+                }
+                let header = (text.find("predicted cycle time: 61.2 s, lost to slowdowns: 3.5 s, planner: vpop"), text
+                    .find(
+                        "below 80.0 percent of the programmed feed on 12.3 percent of the feed path, 2 slowdowns marked",
+                    ));
+                let (Some(first), Some(second)) = header else { panic!("{label}: the prediction header\n{text}") };
+                assert!(first < second && second < text.find("slowdown one").unwrap_or(0), "{label}: header first");
+                if mode == Mode::Bspline {
+                    // The arc is a spline, and the comment on its CL point stands among its control points.
+                    let lines: Vec<&str> = text.lines().collect();
+                    let note = lines.iter().position(|l| l.contains("slowdown one")).unwrap_or(0);
+                    let open = lines[..note].iter().rposition(|l| l.contains("BSPLINE") || l.ends_with("G1"));
+                    assert!(open.is_some_and(|o| lines[o].contains("BSPLINE")), "{label}: in the spline\n{text}");
+                }
+                check(&text, &f, d, &options, &label);
+            }
+        }
+    }
+}
+
+#[test]
+fn one_annotated_program_per_dialect() {
+    let f = fixture();
+    for &(dialect_name, mode) in PINNED {
+        let d = dialect(dialect_name).expect("dialect");
+        let text = program(&f, d, &options(mode, &f.solved, false));
+        insta::assert_snapshot!(format!("annotated_{dialect_name}__{}", mode.name()), text);
+    }
+}
+
+/// Comment characters the dialect cannot hold are cleaned (Fanuc: brackets for parentheses, no
+/// line breaks), an overlong annotation is cut to the line length, annotations given out of order
+/// are written in the order of their steps, and a prediction of NaN still renders.
+#[test]
+fn annotations_are_cleaned_cut_and_ordered() {
+    let f = fixture();
+    let d = dialect("fanuc").expect("dialect");
+    let last = f.solved.steps.len() - 1;
+    let mut options = options(Mode::G1, &f.solved, false);
+    options.annotations = vec![
+        Annotation { step: last, text: "late".into() },
+        Annotation { step: 3, text: "slow (B acc)\nnext".into() },
+        Annotation { step: 3, text: "x".repeat(1000) },
+        Annotation { step: usize::MAX, text: String::new() },
+    ];
+    options.prediction =
+        Some(Prediction { cycle_time: f64::NAN, planner: "inverse-time (fallback)".into(), ..prediction() });
+    let text = program(&f, d, &options);
+    let lines: Vec<&str> = text.lines().collect();
+    let slow = lines.iter().position(|l| *l == "(slow [B acc] next)").expect("cleaned");
+    let long = lines.iter().position(|l| l.starts_with("(xxxx")).expect("cut");
+    let late = lines.iter().position(|l| *l == "(late)").expect("late");
+    assert!(slow < long && long < late, "{text}");
+    assert!(lines[long].len() <= d.max_line);
+    assert_eq!(lines.iter().filter(|l| **l == "()").count(), 1, "the empty annotation is kept");
+    assert!(text.contains("planner: inverse-time [fallback])"), "{text}");
+    assert!(text.contains("predicted cycle time: NaN s"), "{text}");
+}
+
+/// A whole 5-axis example (its splines refined by the fit, decisions, retracts), an annotation on
+/// every 37th step (CL points and linearization points alike) and one past the end.
+#[test]
+fn annotations_on_a_whole_example() {
+    let relative = "examples/cl/hypar-5axis.cl";
+    let file = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..").join(relative);
+    let f = fixture_of(Source::from_bytes(relative, std::fs::read(&file).expect("the example")));
+    let n = f.solved.steps.len();
+    let mut annotations: Vec<Annotation> =
+        (0..n).step_by(37).map(|k| Annotation { step: k, text: format!("note at step {k} of {n}") }).collect();
+    annotations.push(Annotation { step: n, text: "note past the end".into() });
+    assert!(annotations.iter().any(|a| a.step < n && f.solved.steps[a.step].kind == StepKind::Linearized));
+    let d = dialect("siemens-840d").expect("dialect");
+    for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp, Mode::Bspline] {
+        let options = Options {
+            mode,
+            program_name: "HYPAR".into(),
+            source_name: relative.into(),
+            block_numbers: false,
+            prediction: None,
+            annotations: annotations.clone(),
+        };
+        let text = program(&f, d, &options);
+        let refined = check(&text, &f, d, &options, &format!("hypar {}", mode.name()));
+        if mode == Mode::Bspline {
+            assert!(refined > 0, "some annotations stand in splines the fit refined");
+        }
+    }
+}
