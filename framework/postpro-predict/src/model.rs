@@ -1,0 +1,157 @@
+//! The inverse-time model of papers 000 and 001 (`DOMAIN.md` §4) as a [`Track`].
+//!
+//! The parameter is the programmed time: block `i` spans its nominal duration `T_i`, so the
+//! parameter's speed is the share of the programmed feed reached, and every axis moves at
+//! `ΔP_j / T_i` times it. A block's caps are those of [`block_limits`] scaled by `T_i` (axis
+//! velocity, acceleration and jerk over `|ΔP_j|`, one interpolation cycle per block at least), and
+//! the CNC's tangential acceleration and jerk over the nominal tip feed. Where two blocks meet,
+//! the CNC rounds the corner within the contour tolerance: the tip crosses it at
+//! `sqrt(R · A · (1 − share))`, and each axis's velocity may jump by no more than
+//! `sqrt(e · Amax_j)` (paper 001's per-axis deviation `e = Δv² / Amax`, with `e` read in the
+//! axis's NC unit: mm, or degrees for a rotary axis). Rapids, tool changes, spindle changes,
+//! dwells and stops are exact stops. The look-ahead sees `cnc.look_ahead` blocks.
+
+use crate::block::{Limiter, block_limits};
+use crate::corner::corner_speed;
+use crate::moves::{BlockKind, Blocks};
+use crate::plan::{Junction, Limit, Piece, Track};
+use postpro_machine::model::{AxisKind, Machine};
+
+/// The track of `blocks` on `machine`, and for each piece the block it stands for (blocks of
+/// no duration have no piece).
+pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
+    let cnc = &machine.cnc;
+    let axes = &machine.axes;
+    let mut delta = vec![0.0; blocks.axes];
+    let mut next_delta = vec![0.0; blocks.axes];
+    let mut pieces = Vec::with_capacity(blocks.len());
+    let mut junctions: Vec<Junction> = Vec::with_capacity(blocks.len());
+    let mut owner = Vec::with_capacity(blocks.len());
+    // The corner's acceleration: the CNC's path acceleration, or the weakest linear axis's.
+    let path_accel = cnc.tangential_accel.unwrap_or_else(|| {
+        axes.iter().filter(|a| a.kind == AxisKind::Linear).map(|a| a.amax).fold(f64::INFINITY, f64::min)
+    });
+    let mut dwell_at_start = 0.0;
+    let mut pending_stop = false;
+    let mut pending_dwell = 0.0;
+    for i in 0..blocks.len() {
+        pending_stop |= blocks.stop_before[i];
+        pending_dwell += blocks.dwell_before[i];
+        let nominal = blocks.nominal[i];
+        if nominal <= 0.0 {
+            continue; // nothing moves
+        }
+        blocks.delta(i, &mut delta);
+        let piece = piece(blocks, machine, i, &delta, nominal);
+        if let Some(last) = junctions.last_mut() {
+            if pending_stop {
+                *last = Junction { cap: 0.0, limit: Limit::Stop, dwell: pending_dwell };
+            } else {
+                let previous = owner[owner.len() - 1];
+                blocks.delta(previous, &mut next_delta);
+                let cap = corner_cap(blocks, machine, previous, i, &next_delta, &delta, path_accel);
+                *last = Junction { cap, limit: Limit::Corner, dwell: 0.0 };
+            }
+        } else {
+            dwell_at_start = pending_dwell;
+        }
+        pending_stop = false;
+        pending_dwell = 0.0;
+        pieces.push(piece);
+        junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
+        owner.push(i);
+    }
+    if let Some(last) = junctions.last_mut() {
+        last.dwell = pending_dwell;
+    }
+    let window = cnc.look_ahead.max(1);
+    (Track { pieces, junctions, window, dwell_at_start }, owner)
+}
+
+/// The caps of block `i`, in programmed time.
+fn piece(blocks: &Blocks, machine: &Machine, i: usize, delta: &[f64], nominal: f64) -> Piece {
+    let cnc = &machine.cnc;
+    let rapid = blocks.kind[i] == BlockKind::Rapid;
+    // In programmed time the block's "feed" is 1/T and its length 1: the limits of the unit
+    // parameter α, times T, are the caps on the share of the feed.
+    let limits = block_limits(&machine.axes, delta, 1.0, 1.0 / nominal, cnc.cycle_time);
+    let axis_limit = |axis: Option<usize>, make: fn(u16) -> Limit| axis.map_or(Limit::Programmed, |a| make(a as u16));
+    let (mut velocity, mut velocity_limit) = (
+        (limits.velocity * nominal).min(1.0),
+        match limits.limiter {
+            Limiter::Programmed if rapid => Limit::Rapid,
+            Limiter::Programmed => Limit::Programmed,
+            Limiter::Axis(a) => Limit::Velocity(a as u16),
+            Limiter::CycleTime => Limit::CycleTime,
+        },
+    );
+    if rapid && velocity_limit != Limit::CycleTime {
+        velocity_limit = Limit::Rapid;
+    }
+    if velocity >= 1.0 {
+        velocity = 1.0;
+    }
+    let mut acceleration = limits.acceleration.0 * nominal;
+    let mut acceleration_limit = axis_limit(limits.acceleration.1, Limit::Acceleration);
+    let mut jerk = limits.jerk.0 * nominal;
+    let mut jerk_limit = axis_limit(limits.jerk.1, Limit::Jerk);
+    let tip_feed = blocks.nominal_tip_feed(i);
+    if !rapid && tip_feed > 0.0 {
+        if let Some(at) = cnc.tangential_accel
+            && at / tip_feed < acceleration
+        {
+            acceleration = at / tip_feed;
+            acceleration_limit = Limit::TangentialAcceleration;
+        }
+        if let Some(jt) = cnc.tangential_jerk
+            && jt / tip_feed < jerk
+        {
+            jerk = jt / tip_feed;
+            jerk_limit = Limit::TangentialJerk;
+        }
+    }
+    Piece {
+        length: nominal,
+        velocity,
+        acceleration: finite_or(acceleration, 1e12),
+        jerk: finite_or(jerk, 1e15),
+        velocity_limit,
+        acceleration_limit,
+        jerk_limit,
+    }
+}
+
+fn finite_or(x: f64, big: f64) -> f64 {
+    if x.is_finite() { x } else { big }
+}
+
+/// The cap on the share of the feed where block `a` meets block `b`.
+fn corner_cap(blocks: &Blocks, machine: &Machine, a: usize, b: usize, da: &[f64], db: &[f64], path_accel: f64) -> f64 {
+    let cnc = &machine.cnc;
+    let (ta, tb) = (blocks.nominal[a], blocks.nominal[b]);
+    let mut cap = f64::INFINITY;
+    // The tip rounds the corner within the tolerance.
+    let tip = corner_speed(
+        &blocks.direction(a),
+        &blocks.direction(b),
+        cnc.contour_tolerance,
+        path_accel,
+        cnc.curvature_accel_share,
+    );
+    let fastest_tip = blocks.nominal_tip_feed(a).max(blocks.nominal_tip_feed(b));
+    if tip.is_finite() && fastest_tip > 0.0 {
+        cap = cap.min(tip / fastest_tip);
+    }
+    // Each axis's velocity jumps by at most sqrt(e · Amax).
+    for (axis, (x, y)) in machine.axes.iter().zip(da.iter().zip(db)) {
+        let jump = (y / tb - x / ta).abs();
+        if jump > 0.0 {
+            let tolerance = match axis.kind {
+                AxisKind::Linear => cnc.contour_tolerance,
+                AxisKind::Rotary => cnc.contour_tolerance.to_radians(),
+            };
+            cap = cap.min((tolerance * axis.amax).sqrt() / jump);
+        }
+    }
+    cap
+}

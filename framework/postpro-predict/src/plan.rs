@@ -1,0 +1,584 @@
+//! The jerk-limited motion along a path parameter, stepped in time like the CNC's interpolator.
+//!
+//! Both planners reduce the path to a [`Track`]: a scalar parameter `u` cut into pieces, each with
+//! constant caps on `u̇`, `ü` and `u⃛` (the axes' limits seen through the piece's geometry), and a
+//! cap on `u̇` where two pieces meet (corners, exact stops). The inverse-time model of papers
+//! 000/001 takes `u` = programmed time (so `u̇` is the share of the programmed feed reached);
+//! VPOp (paper 003) takes `u` = tool-tip path length.
+//!
+//! The stepper advances one interpolation period `h` at a time. At each step it takes the
+//! largest jerk such that the next state keeps every cap and can still meet every junction cap
+//! ahead, within the look-ahead window (the CNC must be able to stop at the window's end: that
+//! is what a look-ahead of N blocks means), with the fastest jerk-limited braking. The braking
+//! distances are closed forms, so a step costs a handful of operations plus one test per
+//! junction that braking could reach. The result starts and ends at rest and never exceeds a cap
+//! (up to rounding); how far it is from the time-optimal motion is the switching error of one
+//! period, measured in the tests.
+
+use crate::profile::speed_change;
+
+/// What holds the feed back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Limit {
+    /// Nothing: the programmed feed is reached.
+    Programmed,
+    /// The velocity of an axis (index into the machine's axes).
+    Velocity(u16),
+    /// The acceleration of an axis.
+    Acceleration(u16),
+    /// The jerk of an axis.
+    Jerk(u16),
+    /// The CNC's tangential acceleration.
+    TangentialAcceleration,
+    /// The CNC's tangential jerk.
+    TangentialJerk,
+    /// A block shorter than one interpolation cycle.
+    CycleTime,
+    /// Corner rounding within the contour tolerance.
+    Corner,
+    /// The look-ahead window: the CNC must be able to stop at its end.
+    LookAhead,
+    /// An exact stop (rapid, tool change, program end).
+    Stop,
+    /// A rapid traverse, at the axes' speed.
+    Rapid,
+}
+
+/// A piece of the track: constant caps on the parameter's derivatives, and why each holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Piece {
+    /// Length in `u`.
+    pub length: f64,
+    /// Cap on `u̇`.
+    pub velocity: f64,
+    /// Cap on `|ü|`.
+    pub acceleration: f64,
+    /// Cap on `|u⃛|`.
+    pub jerk: f64,
+    /// What gives the velocity cap.
+    pub velocity_limit: Limit,
+    /// What gives the acceleration cap.
+    pub acceleration_limit: Limit,
+    /// What gives the jerk cap.
+    pub jerk_limit: Limit,
+}
+
+/// The end of a piece: a cap on `u̇` there, and a dwell when the motion stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Junction {
+    /// Cap on `u̇` (0 for an exact stop).
+    pub cap: f64,
+    /// What gives it.
+    pub limit: Limit,
+    /// Time spent at rest here (s), when `cap` is 0.
+    pub dwell: f64,
+}
+
+/// The path as the planner sees it. `junctions[i]` ends `pieces[i]`; the last one is a stop.
+#[derive(Clone, Debug, Default)]
+pub struct Track {
+    /// The pieces, each of positive length.
+    pub pieces: Vec<Piece>,
+    /// One per piece.
+    pub junctions: Vec<Junction>,
+    /// Pieces the CNC sees ahead, the current one included (`usize::MAX`: all).
+    pub window: usize,
+    /// Dwell before the first piece (s).
+    pub dwell_at_start: f64,
+}
+
+impl Track {
+    /// The cap at junction `i` with the pieces on both sides, and what gives it.
+    fn junction_cap(&self, i: usize) -> (f64, Limit) {
+        let j = self.junctions[i];
+        let mut best = (j.cap, j.limit);
+        for p in [Some(i), (i + 1 < self.pieces.len()).then_some(i + 1)].into_iter().flatten() {
+            if self.pieces[p].velocity < best.0 {
+                best = (self.pieces[p].velocity, self.pieces[p].velocity_limit);
+            }
+        }
+        best
+    }
+}
+
+/// One interpolation step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Time (s).
+    pub t: f64,
+    /// Parameter.
+    pub u: f64,
+    /// `u̇`.
+    pub v: f64,
+    /// `ü`.
+    pub a: f64,
+    /// `u⃛` over the step that ended here.
+    pub j: f64,
+    /// The piece `u` is in.
+    pub piece: usize,
+    /// What held the step back.
+    pub limit: Limit,
+}
+
+/// What the stepper reports.
+pub trait Observer {
+    /// A sample, every period (and at the very end).
+    fn sample(&mut self, sample: &Sample);
+    /// The motion crossed the end of `piece` at time `t` with `u̇ = v`; `limit` held that step.
+    fn crossing(&mut self, piece: usize, t: f64, v: f64, limit: Limit);
+}
+
+/// Runs the motion along `track` with period `h` (s), reporting to `observer`. Returns the
+/// total time (s), dwells included.
+pub fn run(track: &Track, h: f64, observer: &mut dyn Observer) -> f64 {
+    let n = track.pieces.len();
+    if n == 0 {
+        return track.dwell_at_start;
+    }
+    // Junction positions and caps.
+    let mut ends = Vec::with_capacity(n);
+    let mut caps = Vec::with_capacity(n);
+    let mut total = 0.0;
+    for i in 0..n {
+        total += track.pieces[i].length;
+        ends.push(total);
+        caps.push(if i + 1 == n { (0.0, Limit::Stop) } else { track.junction_cap(i) });
+    }
+    let mut s = Stepper { track, ends, caps, h, t: track.dwell_at_start, u: 0.0, v: 0.0, a: 0.0, k: 0 };
+    observer.sample(&Sample { t: s.t, u: 0.0, v: 0.0, a: 0.0, j: 0.0, piece: 0, limit: Limit::Stop });
+    s.go(observer);
+    s.t
+}
+
+struct Stepper<'a> {
+    track: &'a Track,
+    ends: Vec<f64>,
+    caps: Vec<(f64, Limit)>,
+    h: f64,
+    t: f64,
+    u: f64,
+    v: f64,
+    a: f64,
+    /// Current piece.
+    k: usize,
+}
+
+/// The state after `h` at constant jerk `j`.
+#[inline]
+fn advance(u: f64, v: f64, a: f64, j: f64, h: f64) -> (f64, f64, f64) {
+    (u + v * h + a * h * h / 2.0 + j * h * h * h / 6.0, v + a * h + j * h * h / 2.0, a + j * h)
+}
+
+impl Stepper<'_> {
+    fn go(&mut self, observer: &mut dyn Observer) {
+        let n = self.track.pieces.len();
+        let end = self.ends[n - 1];
+        // Enough for any motion: a run away loop would be a bug; stop it rather than hang.
+        let mut guard: u64 = 0;
+        loop {
+            guard += 1;
+            let piece = self.track.pieces[self.k];
+            let (j, limit) = self.choose();
+            if self.caps[self.k].0 <= 0.0
+                && let Some(tau) = final_phase(self.a, j, self.h)
+                && tau <= self.h
+                && self.ends[self.k] - self.u <= self.v * tau + 1e-12
+            {
+                // The braking's last phase ends within this step: the stop, exactly.
+                self.t += tau;
+                self.u = self.ends[self.k];
+                self.v = 0.0;
+                self.a = 0.0;
+                observer.crossing(self.k, self.t, 0.0, Limit::Stop);
+                observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit: Limit::Stop });
+                self.k += 1;
+                if self.k == n {
+                    return;
+                }
+                self.t += self.track.junctions[self.k - 1].dwell;
+                continue;
+            }
+            let (u1, v1, a1) = advance(self.u, self.v, self.a, j, self.h);
+            // Crossings of junctions within this step.
+            let mut crossed_stop = false;
+            while self.k < n && u1 >= self.ends[self.k] {
+                let at = self.ends[self.k];
+                let tau = time_to(self.u, self.v, self.a, j, at, self.h);
+                let (_, vc, _) = advance(self.u, self.v, self.a, j, tau);
+                if self.caps[self.k].0 <= 0.0 {
+                    observer.crossing(self.k, self.t + final_phase(self.a, j, self.h).unwrap_or(tau), 0.0, Limit::Stop);
+                    // An exact stop: the motion ends at the junction, at the end of the braking's
+                    // last phase (the acceleration eased to 0 at the jerk chosen).
+                    self.t += final_phase(self.a, j, self.h).unwrap_or(tau);
+                    self.u = at;
+                    self.v = 0.0;
+                    self.a = 0.0;
+                    crossed_stop = true;
+                    self.k += 1;
+                    break;
+                }
+                // At its cap, the junction is what holds the speed there.
+                let (cap, why) = self.caps[self.k];
+                let here = if vc >= 0.99 * cap { why } else { limit };
+                observer.crossing(self.k, self.t + tau, vc.max(0.0), here);
+                self.k += 1;
+            }
+            if crossed_stop {
+                observer.sample(&Sample {
+                    t: self.t,
+                    u: self.u,
+                    v: 0.0,
+                    a: 0.0,
+                    j,
+                    piece: self.k - 1,
+                    limit: Limit::Stop,
+                });
+                if self.k == n {
+                    return;
+                }
+                self.t += self.track.junctions[self.k - 1].dwell;
+                continue;
+            }
+            if v1 < 0.0 || (v1 == 0.0 && a1 <= 0.0) || guard > 200_000_000 {
+                // The speed reaches 0 within this step.
+                let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
+                let (u_rest, _, _) = advance(self.u, self.v, self.a, j, tau);
+                let tau = final_phase(self.a, j, self.h).unwrap_or(tau);
+                let at = self.ends[self.k];
+                let rest = (at - u_rest).max(0.0);
+                self.t += tau;
+                self.v = 0.0;
+                self.a = 0.0;
+                if rest > 10.0 * piece.jerk * self.h.powi(3) && guard <= 200_000_000 {
+                    // Stopped short of a look-ahead window's end: start again from rest.
+                    self.u = u_rest;
+                    observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit });
+                    continue;
+                }
+                // Braking ended a hair before the junction (the period's rounding): cover the
+                // last bit as the end of a braking would, and stop there.
+                self.t += (6.0 * rest / piece.jerk.max(1e-12)).cbrt();
+                self.u = at;
+                let why = if self.caps[self.k].0 <= 0.0 { Limit::Stop } else { Limit::LookAhead };
+                observer.crossing(self.k, self.t, 0.0, why);
+                observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit });
+                self.k += 1;
+                if self.k == n || self.u >= end {
+                    return;
+                }
+                self.t += self.track.junctions[self.k - 1].dwell;
+                continue;
+            }
+            self.t += self.h;
+            self.u = u1;
+            self.v = v1;
+            self.a = a1;
+            let piece_now = self.k.min(n - 1);
+            let shown = if v1 >= 0.999 * self.track.pieces[piece_now].velocity {
+                self.track.pieces[piece_now].velocity_limit
+            } else {
+                limit
+            };
+            observer.sample(&Sample { t: self.t, u: u1, v: v1, a: a1, j, piece: piece_now, limit: shown });
+        }
+    }
+
+    /// The largest jerk for the next step, and what bounds it.
+    fn choose(&self) -> (f64, Limit) {
+        let h = self.h;
+        let (u, v, a) = (self.u, self.v, self.a);
+        let p = &self.track.pieces[self.k];
+        let mut j = p.jerk;
+        let mut limit = p.jerk_limit;
+        // Acceleration cap.
+        let ja = (p.acceleration - a) / h;
+        if ja < j {
+            j = ja;
+            limit = p.acceleration_limit;
+        }
+        // Velocity cap: the speed once the acceleration is brought back to 0 stays under it.
+        let jv = velocity_cap_jerk(v, a, p.velocity, p.jerk, h);
+        if jv < j {
+            j = jv;
+            limit = p.velocity_limit;
+        }
+        let floor = (-p.jerk).max((-p.acceleration - a) / h);
+        if j <= floor {
+            return (floor, limit);
+        }
+        // Junctions ahead, within the window and within braking reach.
+        let n = self.track.pieces.len();
+        let last = if self.track.window == usize::MAX { n - 1 } else { (self.k + self.track.window - 1).min(n - 1) };
+        let mut amin = p.acceleration;
+        let mut jmin = p.jerk;
+        for m in self.k..=last {
+            if m + 1 < n {
+                amin = amin.min(self.track.pieces[m + 1].acceleration);
+                jmin = jmin.min(self.track.pieces[m + 1].jerk);
+            }
+            let (cap, why) = if m == last && m + 1 < n { (0.0, Limit::LookAhead) } else { self.caps[m] };
+            let at = self.ends[m];
+            let (_, v1, a1) = advance(u, v, a, j, h);
+            // A cap the speed cannot reach is no constraint.
+            let peak = v1 + a1.max(0.0).powi(2) / (2.0 * jmin);
+            if cap < peak || a1.abs() > amin {
+                let fits = |jj: f64| {
+                    let (u1, v1, a1) = advance(u, v, a, jj, h);
+                    let room = at - u1;
+                    reach_distance(v1, a1, cap, amin, jmin, p.jerk) <= room
+                        && (a1 <= amin || ease_distance(v1, a1, amin, p.jerk) <= room)
+                };
+                if !fits(j) {
+                    limit = why;
+                    if !fits(floor) {
+                        return (floor, limit);
+                    }
+                    let (mut lo, mut hi) = (floor, j);
+                    for _ in 0..40 {
+                        let mid = 0.5 * (lo + hi);
+                        if fits(mid) {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    j = lo;
+                }
+            }
+            // Beyond the braking reach from the next state, nothing can bind.
+            let (u1, v1, a1) = advance(u, v, a, j, h);
+            if at - u1 > reach_distance(v1, a1, 0.0, amin, jmin, p.jerk) {
+                break;
+            }
+        }
+        (j, limit)
+    }
+}
+
+/// The time left in a braking's last phase (the deceleration `a` eased to 0 at jerk `j`), when
+/// the motion is in it: it depends on the acceleration only, where the distance left would be
+/// ill-conditioned.
+fn final_phase(a: f64, j: f64, h: f64) -> Option<f64> {
+    (a < 0.0 && j > 0.0 && -a / j <= 2.0 * h).then(|| -a / j)
+}
+
+/// The largest jerk over `h` that keeps the speed, once the acceleration is brought back to 0 at
+/// `jmax`, under `vmax`.
+fn velocity_cap_jerk(v: f64, a: f64, vmax: f64, jmax: f64, h: f64) -> f64 {
+    // Ending with a' ≤ 0: v' = v + a h + j h²/2 ≤ vmax.
+    let linear = 2.0 * (vmax - v - a * h) / (h * h);
+    if a + linear * h <= 0.0 {
+        return linear;
+    }
+    // Ending with a' > 0: v' + a'²/(2 jmax) ≤ vmax, a quadratic in j.
+    let qa = h * h / (2.0 * jmax);
+    let qb = h * h / 2.0 + a * h / jmax;
+    let qc = v + a * h + a * a / (2.0 * jmax) - vmax;
+    let disc = qb * qb - 4.0 * qa * qc;
+    if disc < 0.0 {
+        return -a / h; // bring the acceleration to 0 as fast as possible
+    }
+    (-qb + disc.sqrt()) / (2.0 * qa)
+}
+
+/// The shortest distance in which the speed `v` with acceleration `a` can be brought to at most
+/// `w`, with `|ü| ≤ amax` and `|u⃛| ≤ jmax` (and `jnow` the jerk available to end an ongoing
+/// acceleration). 0 when the speed never exceeds `w`.
+pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow: f64) -> f64 {
+    let jr = jmax.min(jnow);
+    if a > 0.0 {
+        // End the acceleration first.
+        let t = a / jr;
+        let v1 = v + a * t - jr * t * t / 2.0;
+        if v1 <= w {
+            return 0.0;
+        }
+        let d1 = v * t + a * t * t / 2.0 - jr * t * t * t / 6.0;
+        return d1 + speed_change(v1, w, amax, jmax).0;
+    }
+    if v <= w {
+        return 0.0;
+    }
+    let d = -a; // deceleration already under way
+    if d > amax {
+        // More deceleration than the next piece allows: ease it to amax first.
+        let t = (d - amax) / jr;
+        let v1 = v + a * t + jr * t * t / 2.0;
+        let d1 = v * t + a * t * t / 2.0 + jr * t * t * t / 6.0;
+        if v1 <= w {
+            return d1.min(first_time_distance(v, a, jr, w));
+        }
+        return d1 + reach_distance(v1, -amax, w, amax, jmax, jnow);
+    }
+    let v_end = v - d * d / (2.0 * jmax);
+    if v_end >= w {
+        // The braking from rest acceleration at `virtual_v` passes through (v, a): subtract the
+        // part before it.
+        let virtual_v = v + d * d / (2.0 * jmax);
+        let t = d / jmax;
+        let before = virtual_v * t - jmax * t * t * t / 6.0;
+        (speed_change(virtual_v, w, amax, jmax).0 - before).max(0.0)
+    } else {
+        first_time_distance(v, a, jmax, w)
+    }
+}
+
+/// The distance covered while an acceleration `a > amax` is eased to `amax` at jerk `j`.
+fn ease_distance(v: f64, a: f64, amax: f64, j: f64) -> f64 {
+    let t = (a - amax) / j;
+    v * t + a * t * t / 2.0 - j * t * t * t / 6.0
+}
+
+/// The distance until the speed first falls to `w` while the deceleration `a < 0` is eased at
+/// jerk `j` (the speed is then still above `w` when the acceleration reaches 0 otherwise).
+fn first_time_distance(v: f64, a: f64, j: f64, w: f64) -> f64 {
+    // v + a τ + j τ²/2 = w, smallest positive root.
+    let disc = a * a - 2.0 * j * (v - w);
+    let tau = if disc <= 0.0 { -a / j } else { (-a - disc.sqrt()) / j };
+    v * tau + a * tau * tau / 2.0 + j * tau * tau * tau / 6.0
+}
+
+/// The time within `(0, h]` at which the parameter reaches `target` (Newton from the linear guess).
+fn time_to(u: f64, v: f64, a: f64, j: f64, target: f64, h: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, h);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if advance(u, v, a, j, mid).0 < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+/// The time within `(0, h]` at which the speed reaches 0.
+fn time_to_rest(v: f64, a: f64, j: f64, h: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, h);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if advance(0.0, v, a, j, mid).1 > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::profile::Profile;
+
+    struct Record(Vec<Sample>);
+
+    impl Observer for Record {
+        fn sample(&mut self, sample: &Sample) {
+            self.0.push(*sample);
+        }
+        fn crossing(&mut self, _: usize, _: f64, _: f64, _: Limit) {}
+    }
+
+    fn piece(length: f64, v: f64, a: f64, j: f64) -> Piece {
+        Piece {
+            length,
+            velocity: v,
+            acceleration: a,
+            jerk: j,
+            velocity_limit: Limit::Programmed,
+            acceleration_limit: Limit::Acceleration(0),
+            jerk_limit: Limit::Jerk(0),
+        }
+    }
+
+    fn single(length: f64, v: f64, a: f64, j: f64, h: f64) -> (f64, Vec<Sample>) {
+        let track = Track {
+            pieces: vec![piece(length, v, a, j)],
+            junctions: vec![Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 }],
+            window: 10,
+            dwell_at_start: 0.0,
+        };
+        let mut r = Record(Vec::new());
+        let t = run(&track, h, &mut r);
+        (t, r.0)
+    }
+
+    #[test]
+    fn one_piece_takes_the_time_optimal_rest_to_rest_motion() {
+        // Within 0.1 %, or within one period for a motion of a few periods (a CNC's motion
+        // lasts a whole number of them anyway).
+        let h = 0.003;
+        for &(d, v, a, j) in &[
+            (100.0, 500.0, 2500.0, 5000.0),
+            (1000.0, 500.0, 2500.0, 5000.0),
+            (3.0, 100.0, 10_000.0, 100_000.0),
+            (50.0, 83.3, 10_000.0, 100_000.0),
+        ] {
+            let exact = Profile::rest_to_rest(d, v, a, j).duration();
+            let (t, samples) = single(d, v, a, j, h);
+            assert!((t - exact).abs() < (1e-3 * exact).max(h), "{d} mm: {t} s against {exact} s");
+            let last = samples.last().map_or(0.0, |s| s.u);
+            assert!((last - d).abs() < 1e-9);
+            for s in &samples {
+                assert!(s.v <= v * (1.0 + 1e-9) && s.a.abs() <= a * (1.0 + 1e-9) && s.j.abs() <= j * (1.0 + 1e-9));
+            }
+        }
+    }
+
+    #[test]
+    fn the_reach_distance_from_rest_is_the_speed_change() {
+        let (amax, jmax) = (2500.0, 5000.0);
+        for &(v, w) in &[(500.0, 0.0), (100.0, 20.0), (2000.0, 0.0)] {
+            let d = reach_distance(v, 0.0, w, amax, jmax, jmax);
+            assert!((d - speed_change(v, w, amax, jmax).0).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn braking_under_way_needs_less_distance_than_braking_from_cruise() {
+        let (amax, jmax) = (2500.0, 5000.0);
+        let from_cruise = reach_distance(400.0, 0.0, 0.0, amax, jmax, jmax);
+        let under_way = reach_distance(400.0, -1000.0, 0.0, amax, jmax, jmax);
+        assert!(under_way < from_cruise);
+        // Following a braking profile, the remaining distance is what it says.
+        let p = Profile::rest_to_rest(1000.0, 400.0, amax, jmax);
+        let t_end = p.duration();
+        for k in 1..20 {
+            let t = t_end - 0.02 * k as f64;
+            let s = p.at(t);
+            if s.a < 0.0 {
+                let d = reach_distance(s.v, s.a, 0.0, amax, jmax, jmax);
+                assert!((d - (1000.0 - s.s)).abs() < 1e-6, "at {t}: {d} vs {}", 1000.0 - s.s);
+            }
+        }
+    }
+
+    #[test]
+    fn a_corner_cap_is_met_and_the_look_ahead_slows_short_pieces() {
+        let p = piece(1.0, 500.0, 2500.0, 5000.0);
+        let corner = Junction { cap: 50.0, limit: Limit::Corner, dwell: 0.0 };
+        let stop = Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 };
+        let mut pieces = vec![p; 200];
+        pieces[100].length = 1.0;
+        let mut junctions = vec![Junction { cap: f64::INFINITY, limit: Limit::Corner, dwell: 0.0 }; 200];
+        junctions[99] = corner;
+        junctions[199] = stop;
+        let wide =
+            Track { pieces: pieces.clone(), junctions: junctions.clone(), window: usize::MAX, dwell_at_start: 0.0 };
+        let narrow = Track { pieces, junctions, window: 5, dwell_at_start: 0.0 };
+        let mut crossing_speed = Vec::new();
+        struct Crossings<'a>(&'a mut Vec<(usize, f64)>);
+        impl Observer for Crossings<'_> {
+            fn sample(&mut self, _: &Sample) {}
+            fn crossing(&mut self, piece: usize, _: f64, v: f64, _: Limit) {
+                self.0.push((piece, v));
+            }
+        }
+        let t_wide = run(&wide, 0.003, &mut Crossings(&mut crossing_speed));
+        let at_corner = crossing_speed.iter().find(|(p, _)| *p == 99).map(|c| c.1);
+        assert!(at_corner.is_some_and(|v| v <= 50.0 * 1.001), "{at_corner:?}");
+        let t_narrow = run(&narrow, 0.003, &mut Crossings(&mut Vec::new()));
+        assert!(t_narrow > t_wide * 1.2, "a 5-piece look-ahead on 1 mm pieces: {t_narrow} s vs {t_wide} s");
+    }
+}
