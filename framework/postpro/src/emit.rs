@@ -8,10 +8,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use postpro_cl::Source;
 use postpro_emit::{EmitError, Mode, Options, builtin_template, dialect, write_program};
-use postpro_kin::solve;
 
+use crate::job::{fail, prepare};
+use crate::predict::{self, PredictionArgs};
 use crate::report;
 use crate::solve::{IktArgs, MachineArgs};
 
@@ -37,6 +37,11 @@ pub(crate) struct EmitArgs {
     /// or `tcp` (tool tip and vector; the controller solves the kinematics).
     #[arg(long, value_enum, default_value_t = ModeArg::G1)]
     mode: ModeArg,
+    #[command(flatten)]
+    prediction: PredictionArgs,
+    /// Do not predict the feed (no slowdown comments, no predicted cycle time in the header).
+    #[arg(long)]
+    no_predict: bool,
     /// The controller dialect (default: the machine's): siemens-840d, fanuc, heidenhain, linuxcnc.
     #[arg(long, value_name = "NAME")]
     dialect: Option<String>,
@@ -50,11 +55,23 @@ pub(crate) struct EmitArgs {
 
 /// `--mode`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum ModeArg {
+pub(crate) enum ModeArg {
     G1,
     InverseTime,
     Bspline,
     Tcp,
+}
+
+impl ModeArg {
+    /// The emitter's mode.
+    pub(crate) fn mode(self) -> Mode {
+        match self {
+            ModeArg::G1 => Mode::G1,
+            ModeArg::InverseTime => Mode::InverseTime,
+            ModeArg::Bspline => Mode::Bspline,
+            ModeArg::Tcp => Mode::Tcp,
+        }
+    }
 }
 
 impl EmitArgs {
@@ -62,11 +79,6 @@ impl EmitArgs {
     pub(crate) fn given(&self) -> bool {
         self.file.is_some() || self.machine.is_some()
     }
-}
-
-fn fail(message: &str, code: u8) -> ExitCode {
-    eprint!("{message}");
-    ExitCode::from(code)
 }
 
 pub(crate) fn run(args: &EmitArgs) -> ExitCode {
@@ -77,11 +89,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
-    let mut machine = chosen.machine.clone();
-    if let Err(message) = args.ikt.apply(&mut machine) {
-        return fail(&format!("error: {message}\n"), 2);
-    }
-    let dialect_name = args.dialect.clone().unwrap_or_else(|| machine.dialect.clone());
+    let dialect_name = args.dialect.clone().unwrap_or_else(|| chosen.machine.dialect.clone());
     let Some(dialect) = dialect(&dialect_name) else {
         let known: Vec<&str> = postpro_emit::DIALECTS.iter().map(|d| d.name).collect();
         return fail(&format!("error: unknown dialect `{dialect_name}`; known: {}\n", known.join(", ")), 2);
@@ -107,12 +115,13 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             2,
         );
     }
+    let mode = args.mode.mode();
+    if let Err(e) = postpro_emit::check_mode(dialect, mode) {
+        return fail(&report::render(&e), 1);
+    }
 
-    let source = match Source::from_path(file) {
-        Ok(s) => s,
-        Err(e) => return fail(&format!("error: {e}\n"), 1),
-    };
-    let progress = (std::io::stderr().is_terminal() && source.text().len() > PROGRESS_BYTES).then(|| {
+    let big = std::fs::metadata(file).is_ok_and(|m| m.len() as usize > PROGRESS_BYTES);
+    let progress = (std::io::stderr().is_terminal() && big).then(|| {
         let bar = ProgressBar::new_spinner();
         bar.set_style(
             ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
@@ -123,56 +132,41 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
     });
     let stage = |msg: &str| {
         if let Some(bar) = &progress {
-            bar.set_message(msg.to_string());
+            if msg.is_empty() {
+                bar.finish_and_clear();
+            } else {
+                bar.set_message(msg.to_string());
+            }
         }
     };
-    stage("reading");
-    let path = postpro_cl::read(&source);
-    if path.has_errors() {
-        if let Some(bar) = &progress {
-            bar.finish_and_clear();
-        }
-        for d in path.diagnostics.iter().filter(|d| d.is_error()) {
-            eprint!("{}", d.render(&source));
-        }
-        return fail(&format!("error: {} does not read; nothing written\n", source.name()), 1);
-    }
-    stage("solving the kinematics");
-    // The machine's kinematics: a plugin's compiled solver, or a built-in one.
-    let solver = match chosen.solver(&machine) {
-        Ok(s) => s,
+    let job = match prepare(file, &chosen, &args.ikt, "nothing written", &stage) {
+        Ok(job) => job,
         Err(code) => return code,
     };
-    let kin = solver.kinematics();
-    let solved = solve(kin, &path, &machine.policy);
-    // A plugin's failure during the solve comes first: it is why the solve went wrong.
-    if let Some(e) = solver.take_error() {
-        if let Some(bar) = &progress {
-            bar.finish_and_clear();
-        }
-        return fail(&report::render(&e), 1);
-    }
-    let solved = match solved {
-        Ok(s) => s,
-        Err(e) => {
-            if let Some(bar) = &progress {
-                bar.finish_and_clear();
-            }
-            return fail(&report::render_with_source(e, source.name(), source.text()), 1);
-        }
+    let kin = job.solver.kinematics();
+    let (path, solved, machine, source) = (&job.path, &job.solved, &job.machine, &job.source);
+    let (prediction, annotations) = if args.no_predict {
+        (None, Vec::new())
+    } else {
+        stage("predicting the feed");
+        let predicted = predict::run(&job, mode, &args.prediction, false);
+        let annotations = predict::annotations(&predicted, machine, args.prediction.threshold());
+        let summary = predict::header(&predicted, &args.prediction, annotations.len());
+        (Some(summary), annotations)
     };
     stage("writing the program");
-    let mode = match args.mode {
-        ModeArg::G1 => Mode::G1,
-        ModeArg::InverseTime => Mode::InverseTime,
-        ModeArg::Bspline => Mode::Bspline,
-        ModeArg::Tcp => Mode::Tcp,
-    };
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
-    let options =
-        Options { mode, program_name, source_name: source.name().to_string(), block_numbers: args.block_numbers };
+    let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
+    let options = Options {
+        mode,
+        program_name,
+        source_name: source.name().to_string(),
+        block_numbers: args.block_numbers,
+        prediction,
+        annotations,
+    };
     let write =
-        |out: &mut dyn Write| write_program(&path, &solved, kin, dialect, &options, &template.0, &template.1, out);
+        |out: &mut dyn Write| write_program(path, solved, kin, dialect, &options, &template.0, &template.1, out);
     let written = if output == Path::new("-") {
         let stdout = std::io::stdout();
         let mut out = std::io::BufWriter::new(stdout.lock());
@@ -180,9 +174,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
     } else {
         write_atomically(&output, write)
     };
-    if let Some(bar) = &progress {
-        bar.finish_and_clear();
-    }
+    stage("");
     if let Err(e) = written {
         let message = match e {
             EmitError::Io { message } => format!("error: cannot write {}: {message}\n", output.display()),
@@ -199,6 +191,9 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             solved.inserted,
             solved.decisions.len()
         );
+        if let Some((cycle, lost, slowdowns)) = predicted_time {
+            eprintln!("predicted cycle time {cycle:.1} s, {lost:.1} s lost to slowdowns, {slowdowns} slowdowns marked");
+        }
     }
     ExitCode::SUCCESS
 }
@@ -223,7 +218,10 @@ fn same_file(a: &Path, b: &Path) -> bool {
 
 /// Writes to a temporary file beside `path`, then renames it over `path`: readers see the old
 /// file or the whole new one, never a part; on an error the temporary file is removed.
-fn write_atomically(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<(), EmitError>) -> Result<(), EmitError> {
+pub(crate) fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> Result<(), EmitError>,
+) -> Result<(), EmitError> {
     let io = |e: std::io::Error| EmitError::Io { message: e.to_string() };
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().map_or_else(|| "program".into(), |n| n.to_string_lossy().into_owned());

@@ -1,12 +1,15 @@
 //! `postpro`: the command line. `postpro --machine NAME FILE.cl` writes the NC program (the
-//! main job, `emit`); subcommands check CL files, list machines and solve the kinematics.
+//! main job, `emit`); subcommands check CL files, list machines, solve the kinematics and predict the feed.
 //!
 //! Exit codes: 0 when the input reads, 1 for input errors (a CL file or machine definition that
 //! does not read, a missing file), 2 for usage errors (clap's own code).
 
 mod check;
 mod emit;
+mod job;
 mod machines;
+mod plot;
+mod predict;
 mod report;
 mod solve;
 
@@ -43,6 +46,10 @@ enum Command {
     /// position, the decisions (branch switches, singularities, retracts) and the points added
     /// by linearization.
     Solve(solve::SolveArgs),
+    /// Predict the feed the machine will really reach: per block the lowest and mean feed, what
+    /// holds it back and the time; the cycle time and the time lost to slowdowns; samples as
+    /// CSV/JSON and an SVG report.
+    Predict(predict::PredictArgs),
 }
 
 fn main() -> ExitCode {
@@ -59,5 +66,6 @@ fn main() -> ExitCode {
         Command::Check(args) => check::run(&args),
         Command::Machines(args) => machines::run(&args),
         Command::Solve(args) => solve::run(&args),
+        Command::Predict(args) => predict::main(&args),
     }
 }

@@ -13,11 +13,12 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use postpro_cl::Source;
-use postpro_kin::{Solved, StepKind, solve};
+use postpro_kin::{Solved, StepKind};
 use postpro_machine::model::{AxisKind, BranchPreference, Machine, OnDiscontinuity, PathChoice, SolverKind};
 use postpro_machine::{Origin, Registry};
 use postpro_plugins::{Plugins, Solver};
 
+use crate::job::fail;
 use crate::report;
 
 /// Arguments of `postpro solve`.
@@ -213,44 +214,16 @@ impl MachineArgs {
     }
 }
 
-fn fail(message: &str, code: u8) -> ExitCode {
-    eprint!("{message}");
-    ExitCode::from(code)
-}
-
 pub(crate) fn run(args: &SolveArgs) -> ExitCode {
     let chosen = match args.machine.choose() {
         Ok(c) => c,
         Err(code) => return code,
     };
-    let mut machine = chosen.machine.clone();
-    if let Err(message) = args.ikt.apply(&mut machine) {
-        return fail(&format!("error: {message}\n"), 2);
-    }
-    let source = match Source::from_path(&args.file) {
-        Ok(s) => s,
-        Err(e) => return fail(&format!("error: {e}\n"), 1),
-    };
-    let path = postpro_cl::read(&source);
-    if path.has_errors() {
-        for d in path.diagnostics.iter().filter(|d| d.is_error()) {
-            eprint!("{}", d.render(&source));
-        }
-        return fail(&format!("error: {} does not read; nothing solved\n", source.name()), 1);
-    }
-    let solver = match chosen.solver(&machine) {
-        Ok(s) => s,
+    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, "nothing solved", &|_| {}) {
+        Ok(job) => job,
         Err(code) => return code,
     };
-    let solved = solve(solver.kinematics(), &path, &machine.policy);
-    // A plugin's failure during the solve comes first: it is why the solve went wrong.
-    if let Some(e) = solver.take_error() {
-        return fail(&report::render(&e), 1);
-    }
-    let solved = match solved {
-        Ok(s) => s,
-        Err(e) => return fail(&report::render_with_source(e, source.name(), source.text()), 1),
-    };
+    let crate::job::Job { source, machine, solver, solved, .. } = job;
     let kinematics = match &solver {
         Solver::Plugin(a) => Some(format!("plugin {} (checked against the definition)", a.library().display())),
         Solver::Built(_) => None,
