@@ -307,52 +307,95 @@ impl Stepper<'_> {
             return (floor, limit);
         }
         // Junctions ahead, within the window and within braking reach.
-        let n = self.track.pieces.len();
+        let pieces = &self.track.pieces;
+        let n = pieces.len();
         let last = if self.track.window == usize::MAX { n - 1 } else { (self.k + self.track.window - 1).min(n - 1) };
-        let mut amin = p.acceleration;
-        let mut jmin = p.jerk;
+        let (mut u1, mut v1, mut a1) = advance(u, v, a, j, h);
+        // The limits of the pieces up to junction m (for the braking reach) and of the piece
+        // after it too (for junction m's own cap: the speed and acceleration carry over).
+        let (mut a_path, mut j_path) = (p.acceleration, p.jerk);
+        let mut reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
+        let (mut amin, mut jmin) = (p.acceleration, p.jerk);
         for m in self.k..=last {
+            if m > self.k && (pieces[m].acceleration < a_path || pieces[m].jerk < j_path) {
+                a_path = a_path.min(pieces[m].acceleration);
+                j_path = j_path.min(pieces[m].jerk);
+                reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
+            }
+            let at = self.ends[m];
+            if at - u1 > reach {
+                break; // the motion can stop before this junction: nothing further binds
+            }
             if m + 1 < n {
-                amin = amin.min(self.track.pieces[m + 1].acceleration);
-                jmin = jmin.min(self.track.pieces[m + 1].jerk);
+                amin = amin.min(pieces[m + 1].acceleration);
+                jmin = jmin.min(pieces[m + 1].jerk);
             }
             let (cap, why) = if m == last && m + 1 < n { (0.0, Limit::LookAhead) } else { self.caps[m] };
-            let at = self.ends[m];
-            let (_, v1, a1) = advance(u, v, a, j, h);
             // A cap the speed cannot reach is no constraint.
             let peak = v1 + a1.max(0.0).powi(2) / (2.0 * jmin);
-            if cap < peak || a1.abs() > amin {
-                let fits = |jj: f64| {
-                    let (u1, v1, a1) = advance(u, v, a, jj, h);
-                    let room = at - u1;
-                    reach_distance(v1, a1, cap, amin, jmin, p.jerk) <= room
-                        && (a1 <= amin || ease_distance(v1, a1, amin, p.jerk) <= room)
-                };
-                if !fits(j) {
-                    limit = why;
-                    if !fits(floor) {
-                        return (floor, limit);
-                    }
-                    let (mut lo, mut hi) = (floor, j);
-                    for _ in 0..40 {
-                        let mid = 0.5 * (lo + hi);
-                        if fits(mid) {
-                            lo = mid;
-                        } else {
-                            hi = mid;
-                        }
-                    }
-                    j = lo;
-                }
+            if cap >= peak && a1.abs() <= amin {
+                continue;
             }
-            // Beyond the braking reach from the next state, nothing can bind.
-            let (u1, v1, a1) = advance(u, v, a, j, h);
-            if at - u1 > reach_distance(v1, a1, 0.0, amin, jmin, p.jerk) {
-                break;
+            // The room left at the junction once braked from the state after jerk `jj`.
+            let slack = |jj: f64| {
+                let (u1, v1, a1) = advance(u, v, a, jj, h);
+                let room = at - u1;
+                let mut need = reach_distance(v1, a1, cap, amin, jmin, p.jerk);
+                if a1 > amin {
+                    need = need.max(ease_distance(v1, a1, amin, p.jerk));
+                }
+                room - need
+            };
+            let fits = |jj: f64| slack(jj) >= 0.0;
+            if !fits(j) {
+                limit = why;
+                if !fits(floor) {
+                    return (floor, limit);
+                }
+                j = largest_fitting(&slack, floor, j);
+                (u1, v1, a1) = advance(u, v, a, j, h);
             }
         }
         (j, limit)
     }
+}
+
+/// The largest jerk in `[lo, hi]` whose `slack` is not negative, knowing `slack(lo) ≥ 0 >
+/// slack(hi)`: regula falsi (Illinois), which converges in a few steps on these smooth curves,
+/// ending on the safe side.
+fn largest_fitting(slack: &dyn Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
+    let (mut f_lo, mut f_hi) = (slack(lo), slack(hi));
+    let tolerance = 1e-9 * (hi - lo).abs().max(1e-12);
+    let mut side = 0;
+    for _ in 0..60 {
+        if hi - lo <= tolerance {
+            break;
+        }
+        let mut x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+        if !(x > lo && x < hi) {
+            x = 0.5 * (lo + hi);
+        }
+        let f = slack(x);
+        if f >= 0.0 {
+            lo = x;
+            f_lo = f;
+            if side == 1 {
+                f_hi /= 2.0;
+            }
+            side = 1;
+        } else {
+            hi = x;
+            f_hi = f;
+            if side == -1 {
+                f_lo /= 2.0;
+            }
+            side = -1;
+        }
+        if f.abs() <= 1e-12 {
+            break;
+        }
+    }
+    lo
 }
 
 /// The time left in a braking's last phase (the deceleration `a` eased to 0 at jerk `j`), when
@@ -438,18 +481,26 @@ fn first_time_distance(v: f64, a: f64, j: f64, w: f64) -> f64 {
     v * tau + a * tau * tau / 2.0 + j * tau * tau * tau / 6.0
 }
 
-/// The time within `(0, h]` at which the parameter reaches `target` (Newton from the linear guess).
+/// The time within `(0, h]` at which the parameter reaches `target`: Newton on the cubic,
+/// kept inside a shrinking bracket (bisection where Newton would leave it).
 fn time_to(u: f64, v: f64, a: f64, j: f64, target: f64, h: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, h);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if advance(u, v, a, j, mid).0 < target {
-            lo = mid;
+    let mut t = if v > 0.0 { ((target - u) / v).clamp(0.0, h) } else { 0.5 * h };
+    for _ in 0..50 {
+        let (x, speed, _) = advance(u, v, a, j, t);
+        let error = x - target;
+        if error < 0.0 {
+            lo = t;
         } else {
-            hi = mid;
+            hi = t;
         }
+        if error.abs() <= 1e-13 * target.abs().max(1.0) || hi - lo <= 1e-15 {
+            break;
+        }
+        let next = t - error / speed;
+        t = if speed > 0.0 && next > lo && next < hi { next } else { 0.5 * (lo + hi) };
     }
-    hi
+    t.clamp(0.0, h)
 }
 
 /// The time within `(0, h]` at which the speed reaches 0.
