@@ -16,7 +16,7 @@
 //! as `header.prediction`, its slowdowns as [`Annotation`]s, comments written before the motion
 //! of the steps they concern.
 
-pub mod bspline;
+pub use postpro_kin::bspline;
 mod dialect;
 mod format;
 mod program;

@@ -7,9 +7,12 @@
 //! - [`policy`]: the choice among the solutions along a path (preferred branch, ranges,
 //!   unwinding of endless axes, singularities, whole-path dynamic programming or greedy,
 //!   discontinuities), every non-obvious decision reported.
+//! - [`bspline`]: the cubic B-spline a CNC interpolates through axis positions (Siemens
+//!   `BSPLINE`), fitted within tolerance, with its derivatives.
 //! - [`linearize`]: extra points so that the tool tip, moving with the axes interpolated
 //!   linearly, stays within tolerance of the programmed segment.
 
+pub mod bspline;
 mod chain;
 mod closed;
 pub mod linearize;

@@ -55,25 +55,44 @@ pub struct Options {
     pub samples: bool,
     /// The sampling period (s); the CNC's interpolation cycle when `None`.
     pub period: Option<f64>,
+    /// The program is written as B-splines (`bspline` output): VPOp follows the splines the
+    /// emitter fits (whatever `planner` says: the block-wise model has no splines).
+    pub splines: bool,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Options { planner: Planner::InverseTime, threshold: 0.8, samples: false, period: None }
+        Options { planner: Planner::InverseTime, threshold: 0.8, samples: false, period: None, splines: false }
     }
 }
 
 /// Predicts the motion of `blocks` on the machine of `kin`.
 pub fn predict(blocks: &Blocks, kin: &dyn Kinematics, options: &Options) -> Prediction {
     let machine = kin.machine();
-    let (track, owner) = match options.planner {
-        Planner::InverseTime => model::track(blocks, machine),
-        Planner::Vpop => vpop::track(blocks, machine),
+    let (track, owner, curves) = match (options.splines, options.planner) {
+        (true, _) => {
+            let (track, owner, curves) = vpop::track_bspline(blocks, kin, machine);
+            (track, owner, Some(curves))
+        }
+        (false, Planner::InverseTime) => {
+            let (track, owner) = model::track(blocks, machine);
+            (track, owner, None)
+        }
+        (false, Planner::Vpop) => {
+            let (track, owner) = vpop::track(blocks, machine);
+            (track, owner, None)
+        }
     };
     let period = options.period.unwrap_or(machine.cnc.cycle_time);
     let keep = options.samples.then_some(kin);
-    let mut collector =
-        report::Collector::new(blocks, &owner, track.pieces.iter().map(|p| p.length), keep, options.threshold);
+    let mut collector = report::Collector::new(
+        blocks,
+        &owner,
+        track.pieces.iter().map(|p| p.length),
+        keep,
+        curves.as_ref(),
+        options.threshold,
+    );
     let cycle_time = plan::run(&track, period, &mut collector);
     collector.finish();
     let programmed_time: f64 = blocks.nominal.iter().sum::<f64>() + blocks.dwell_before.iter().sum::<f64>();

@@ -52,6 +52,8 @@ pub struct Blocks {
     pub positions: Vec<f64>,
     /// The tool tip in the part frame at the start and after every block (mm).
     pub tips: Vec<nalgebra::Point3<f64>>,
+    /// The tool axis in the part frame at the start and after every block.
+    pub tool_axes: Vec<nalgebra::Unit<Vector3<f64>>>,
     /// Tip length of each block (mm).
     pub length: Vec<f64>,
     /// Programmed feed of each block (mm/s); 0 for rapids.
@@ -66,6 +68,11 @@ pub struct Blocks {
     pub dwell_before: Vec<f64>,
     /// Index of the block's end step in [`Solved::steps`].
     pub step: Vec<usize>,
+    /// True when the block ends on a CL point (not on a point added by linearization).
+    pub cl: Vec<bool>,
+    /// True when an item of the CL file stands between this block and the previous one (the
+    /// emitter ends a B-spline run there: anything but comments, frames, MULTAX, tool shapes).
+    pub run_break: Vec<bool>,
     /// Where an assumption was made (a feed per revolution without a spindle speed, no feed).
     pub notes: Vec<Note>,
 }
@@ -106,9 +113,15 @@ impl Blocks {
         if self.nominal[i] > 0.0 { self.length[i] / self.nominal[i] } else { 0.0 }
     }
 
-    fn push_position(&mut self, joints: &[f64], tip: nalgebra::Point3<f64>) {
+    /// The programmed pose before block `i` (after block `i - 1`).
+    pub fn pose(&self, i: usize) -> postpro_kin::Pose {
+        postpro_kin::Pose { tip: self.tips[i], axis: self.tool_axes[i] }
+    }
+
+    fn push_position(&mut self, joints: &[f64], pose: &postpro_kin::Pose) {
         self.positions.extend_from_slice(joints);
-        self.tips.push(tip);
+        self.tips.push(pose.tip);
+        self.tool_axes.push(pose.axis);
     }
 }
 
@@ -117,8 +130,8 @@ impl Blocks {
 pub fn blocks(path: &ToolPath, solved: &Solved, machine: &Machine, timing: Timing) -> Blocks {
     let mut out = Blocks { axes: machine.axes.len(), ..Blocks::default() };
     let Some(first) = solved.steps.first() else { return out };
-    out.push_position(first.joints.as_slice(), first.pose.tip);
-    let mut state = State { stop: true, dwell: 0.0, rpm: None, feed: None };
+    out.push_position(first.joints.as_slice(), &first.pose);
+    let mut state = State { stop: true, run_break: true, dwell: 0.0, rpm: None, feed: None };
     let mut k = 1; // next step; the first one is where the machine starts
     for item in &path.items {
         let motion = match &item.kind {
@@ -145,6 +158,7 @@ pub fn blocks(path: &ToolPath, solved: &Solved, machine: &Machine, timing: Timin
 /// What the items between moves leave for the next block.
 struct State {
     stop: bool,
+    run_break: bool,
     dwell: f64,
     rpm: Option<f64>,
     feed: Option<f64>,
@@ -152,6 +166,9 @@ struct State {
 
 impl State {
     fn item(&mut self, kind: &ItemKind) {
+        if !matches!(kind, ItemKind::Comment(_) | ItemKind::Frame(_) | ItemKind::Multax(_) | ItemKind::ToolShape(_)) {
+            self.run_break = true;
+        }
         match kind {
             ItemKind::ToolChange(_) | ItemKind::Stop(_) | ItemKind::OptionalStop | ItemKind::End => self.stop = true,
             ItemKind::Spindle(s) => {
@@ -244,6 +261,9 @@ fn push_block(
     let previous_rapid = out.kind.last().is_some_and(|k| *k == BlockKind::Rapid);
     out.stop_before.push(state.stop || rapid || previous_rapid);
     out.dwell_before.push(state.dwell);
+    out.cl.push(matches!(step.kind, StepKind::Cl | StepKind::Reengage));
+    out.run_break.push(state.run_break);
+    state.run_break = false;
     state.stop = false;
     state.dwell = 0.0;
     out.length.push(length);
@@ -251,5 +271,5 @@ fn push_block(
     out.nominal.push(nominal);
     out.kind.push(kind);
     out.step.push(k);
-    out.push_position(b, step.pose.tip);
+    out.push_position(b, &step.pose);
 }

@@ -272,14 +272,17 @@ impl Stepper<'_> {
             self.t += self.h;
             self.u = u1;
             self.v = v1;
-            self.a = a1;
             let piece_now = self.k.min(n - 1);
+            // Across a junction the axes' accelerations jump with their directions anyway (the
+            // corner is rounded within the tolerance): the next piece's cap holds from there.
+            let a_cap = self.track.pieces[piece_now].acceleration;
+            self.a = a1.clamp(-a_cap, a_cap);
             let shown = if v1 >= 0.999 * self.track.pieces[piece_now].velocity {
                 self.track.pieces[piece_now].velocity_limit
             } else {
                 limit
             };
-            observer.sample(&Sample { t: self.t, u: u1, v: v1, a: a1, j, piece: piece_now, limit: shown });
+            observer.sample(&Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: piece_now, limit: shown });
         }
     }
 
@@ -287,7 +290,24 @@ impl Stepper<'_> {
     fn choose(&self) -> (f64, Limit) {
         let h = self.h;
         let (u, v, a) = (self.u, self.v, self.a);
-        let p = &self.track.pieces[self.k];
+        // The caps of every piece this step may enter: the jerk and acceleration chosen hold
+        // for the whole step, on whichever piece it ends.
+        let mut p = self.track.pieces[self.k];
+        let reach = u + v * h + a.max(0.0) * h * h / 2.0 + p.jerk * h * h * h / 6.0;
+        let mut m = self.k;
+        while m + 1 < self.track.pieces.len() && self.ends[m] < reach {
+            m += 1;
+            let q = &self.track.pieces[m];
+            if q.jerk < p.jerk {
+                p.jerk = q.jerk;
+                p.jerk_limit = q.jerk_limit;
+            }
+            if q.acceleration < p.acceleration {
+                p.acceleration = q.acceleration;
+                p.acceleration_limit = q.acceleration_limit;
+            }
+        }
+        let p = &p;
         let mut j = p.jerk;
         let mut limit = p.jerk_limit;
         // Acceleration cap.
@@ -302,7 +322,9 @@ impl Stepper<'_> {
             j = jv;
             limit = p.velocity_limit;
         }
-        let floor = (-p.jerk).max((-p.acceleration - a) / h);
+        // The strongest braking: the jerk, and the current piece's acceleration (a junction
+        // into a piece with less clamps the acceleration there, see `go`).
+        let floor = (-p.jerk).max((-self.track.pieces[self.k].acceleration - a) / h);
         if j <= floor {
             return (floor, limit);
         }
@@ -311,11 +333,12 @@ impl Stepper<'_> {
         let n = pieces.len();
         let last = if self.track.window == usize::MAX { n - 1 } else { (self.k + self.track.window - 1).min(n - 1) };
         let (mut u1, mut v1, mut a1) = advance(u, v, a, j, h);
-        // The limits of the pieces up to junction m (for the braking reach) and of the piece
-        // after it too (for junction m's own cap: the speed and acceleration carry over).
+        // The limits of the pieces up to junction m: the braking happens on them. The piece after
+        // the junction only asks that the acceleration be within its own when the motion gets
+        // there (the speed carries over too: the junction's cap has it).
         let (mut a_path, mut j_path) = (p.acceleration, p.jerk);
         let mut reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
-        let (mut amin, mut jmin) = (p.acceleration, p.jerk);
+        #[allow(clippy::needless_range_loop)] // m indexes pieces, ends and caps alike
         for m in self.k..=last {
             if m > self.k && (pieces[m].acceleration < a_path || pieces[m].jerk < j_path) {
                 a_path = a_path.min(pieces[m].acceleration);
@@ -326,45 +349,46 @@ impl Stepper<'_> {
             if at - u1 > reach {
                 break; // the motion can stop before this junction: nothing further binds
             }
-            if m + 1 < n {
-                amin = amin.min(pieces[m + 1].acceleration);
-                jmin = jmin.min(pieces[m + 1].jerk);
-            }
             let (cap, why) = if m == last && m + 1 < n { (0.0, Limit::LookAhead) } else { self.caps[m] };
+            // The motion stops at a junction capped at 0: nothing after it matters.
+            let stop = cap <= 0.0;
             // A cap the speed cannot reach is no constraint.
-            let peak = v1 + a1.max(0.0).powi(2) / (2.0 * jmin);
-            if cap >= peak && a1.abs() <= amin {
+            let peak = v1 + a1.max(0.0).powi(2) / (2.0 * j_path);
+            if cap >= peak {
+                if stop {
+                    break;
+                }
                 continue;
             }
-            // The room left at the junction once braked from the state after jerk `jj`.
+            // The room left at the junction once the speed is within its cap, from the state
+            // after jerk `jj`.
             let slack = |jj: f64| {
                 let (u1, v1, a1) = advance(u, v, a, jj, h);
-                let room = at - u1;
-                let mut need = reach_distance(v1, a1, cap, amin, jmin, p.jerk);
-                if a1 > amin {
-                    need = need.max(ease_distance(v1, a1, amin, p.jerk));
-                }
-                room - need
+                at - u1 - reach_distance(v1, a1, cap, a_path, j_path, p.jerk)
             };
             let fits = |jj: f64| slack(jj) >= 0.0;
             if !fits(j) {
                 limit = why;
-                if !fits(floor) {
-                    return (floor, limit);
-                }
+
                 j = largest_fitting(&slack, floor, j);
                 (u1, v1, a1) = advance(u, v, a, j, h);
+            }
+            if stop {
+                break;
             }
         }
         (j, limit)
     }
 }
 
-/// The largest jerk in `[lo, hi]` whose `slack` is not negative, knowing `slack(lo) ≥ 0 >
-/// slack(hi)`: regula falsi (Illinois), which converges in a few steps on these smooth curves,
+/// The largest jerk in `[lo, hi]` whose `slack` is not negative, knowing `slack(hi) < 0` and
+/// `slack` falling with the jerk (`lo` when even it does not fit): regula falsi (Illinois), which converges in a few steps on these smooth curves,
 /// ending on the safe side.
 fn largest_fitting(slack: &dyn Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
     let (mut f_lo, mut f_hi) = (slack(lo), slack(hi));
+    if f_lo < 0.0 {
+        return lo; // nothing fits: the strongest braking
+    }
     let tolerance = 1e-9 * (hi - lo).abs().max(1e-12);
     let mut side = 0;
     for _ in 0..60 {
@@ -464,12 +488,6 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
     } else {
         first_time_distance(v, a, jmax, w)
     }
-}
-
-/// The distance covered while an acceleration `a > amax` is eased to `amax` at jerk `j`.
-fn ease_distance(v: f64, a: f64, amax: f64, j: f64) -> f64 {
-    let t = (a - amax) / j;
-    v * t + a * t * t / 2.0 - j * t * t * t / 6.0
 }
 
 /// The distance until the speed first falls to `w` while the deceleration `a < 0` is eased at

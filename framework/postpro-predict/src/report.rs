@@ -2,6 +2,7 @@
 
 use crate::moves::{BlockKind, Blocks};
 use crate::plan::{Limit, Observer, Sample};
+use crate::vpop::{Curves, Segment};
 use postpro_kin::{Joints, Kinematics};
 use postpro_machine::model::Machine;
 
@@ -208,6 +209,7 @@ pub(crate) struct Collector<'a> {
     min_speed: Vec<f64>,
     pub(crate) samples: Option<Samples>,
     kin: Option<&'a dyn Kinematics>,
+    curves: Option<&'a Curves>,
     last_tip: Option<(f64, nalgebra::Point3<f64>)>,
     last_sample: Option<(f64, usize)>,
     pub(crate) length_below: f64,
@@ -222,6 +224,7 @@ impl<'a> Collector<'a> {
         owner: &'a [usize],
         lengths: impl Iterator<Item = f64>,
         keep_samples: Option<&'a dyn Kinematics>,
+        curves: Option<&'a Curves>,
         threshold: f64,
     ) -> Self {
         let mut piece_start = Vec::with_capacity(owner.len());
@@ -231,7 +234,10 @@ impl<'a> Collector<'a> {
         for (l, &b) in lengths.zip(owner) {
             piece_start.push(u);
             piece_length.push(l);
-            scale[b] = blocks.length[b] / l;
+            let curve =
+                curves.is_some_and(|c| matches!(c.segments.get(piece_start.len() - 1), Some(Segment::Curve { .. })));
+            // On a spline the parameter is the tip's chord length: about 1 mm of tip per unit.
+            scale[b] = if curve { 1.0 } else { blocks.length[b] / l };
             u += l;
         }
         let mut path_start = Vec::with_capacity(blocks.len());
@@ -267,6 +273,7 @@ impl<'a> Collector<'a> {
             min_speed: vec![f64::INFINITY; blocks.len()],
             samples: keep_samples.map(|_| Samples { axes: blocks.axes, ..Samples::default() }),
             kin: keep_samples,
+            curves,
             last_tip: None,
             last_sample: None,
             length_below: 0.0,
@@ -321,16 +328,35 @@ impl Observer for Collector<'_> {
         self.last_sample = Some((s.u, s.piece));
         let Some(samples) = self.samples.as_mut() else { return };
         let fraction = ((s.u - self.piece_start[s.piece]) / length).clamp(0.0, 1.0);
-        self.blocks.delta(block, &mut self.scratch);
-        let start = self.blocks.position(block);
-        for (d, p) in self.scratch.iter().zip(start) {
-            samples.position.push(p + d * fraction);
-            samples.velocity.push(d / length * s.v);
-            samples.acceleration.push(d / length * s.a);
-            samples.jerk.push(d / length * s.j);
+        match self.curves.and_then(|c| c.segments.get(s.piece).map(|g| (c, *g))) {
+            Some((curves, Segment::Curve { spline, from })) => {
+                // q̇ = q_s ṡ, q̈ = q_ss ṡ² + q_s s̈, q⃛ = q_sss ṡ³ + 3 q_ss ṡ s̈ + q_s s⃛.
+                let sigma = from + (s.u - self.piece_start[s.piece]).clamp(0.0, length);
+                let d = curves.splines[spline].derivatives(sigma);
+                let [q, qs, qss, qsss] = &d;
+                for (((q, qs), qss), qsss) in
+                    q.as_slice().iter().zip(qs.as_slice()).zip(qss.as_slice()).zip(qsss.as_slice())
+                {
+                    samples.position.push(*q);
+                    samples.velocity.push(qs * s.v);
+                    samples.acceleration.push(qss * s.v * s.v + qs * s.a);
+                    samples.jerk.push(qsss * s.v.powi(3) + 3.0 * qss * s.v * s.a + qs * s.j);
+                }
+                samples.path.push(self.path_start[curves.start_block[spline]] + sigma);
+            }
+            _ => {
+                self.blocks.delta(block, &mut self.scratch);
+                let start = self.blocks.position(block);
+                for (d, p) in self.scratch.iter().zip(start) {
+                    samples.position.push(p + d * fraction);
+                    samples.velocity.push(d / length * s.v);
+                    samples.acceleration.push(d / length * s.a);
+                    samples.jerk.push(d / length * s.j);
+                }
+                samples.path.push(self.path_start[block] + self.blocks.length[block] * fraction);
+            }
         }
         samples.time.push(s.t);
-        samples.path.push(self.path_start[block] + self.blocks.length[block] * fraction);
         samples.block.push(block as u32);
         samples.feed.push(s.v * tip_feed * 60.0);
         samples.programmed.push(self.blocks.feed[block] * 60.0);

@@ -2,60 +2,161 @@
 //!
 //! The parameter is the tip path length `s`; the axes follow `q(s)`, so
 //! `q̇ = q_s ṡ`, `q̈ = q_ss ṡ² + q_s s̈`, `q⃛ = q_sss ṡ³ + 3 q_ss ṡ s̈ + q_s s⃛`. Constraints:
-//! `ṡ ≤ F`, the CNC's tangential `|s̈| ≤ A_t`, `|s⃛| ≤ J_t`, and every axis's V, A, J. On G1
-//! blocks `q` is linear in `s` (`q_ss = q_sss = 0`) and the block corners are rounded within the
-//! contour tolerance as in the inverse-time model; on a B-spline (the `bspline` output) each
-//! knot span is cut into pieces whose caps take the curvature terms at their worst over the
-//! piece, with the speed bounded by paper 003's quick bound
-//! `ṡ ≤ min(F, Vmax/|q_s|, sqrt(Amax/|q_ss|), cbrt(Jmax/|q_sss|))`. Unlike the block-wise
-//! model, nothing ties a block to one interpolation cycle, and the whole path is seen ahead.
+//! `ṡ ≤ F`, the CNC's tangential `|s̈| ≤ A_t`, `|s⃛| ≤ J_t`, and every axis's V, A, J.
+//!
+//! - On G1 blocks `q` is linear in `s` (`q_ss = q_sss = 0`); block corners are rounded within
+//!   the contour tolerance as in the inverse-time model.
+//! - On B-spline output ([`track_bspline`]) each run of feed moves is the spline the emitter
+//!   writes (the same fit, [`postpro_kin::bspline`]), its parameter the tip's chord length. Each
+//!   knot span is cut into pieces whose caps take the derivatives at their worst over the piece:
+//!   the speed at 0.8 × paper 003's quick bound
+//!   `ṡ ≤ min(F, Vmax/|q_s|, sqrt(Amax/|q_ss|), cbrt(Jmax/|q_sss|))`, then the acceleration and
+//!   jerk of `s` left to each axis once the curvature terms at that speed are paid. These caps
+//!   are sufficient, so no axis exceeds its limits; they are conservative where the
+//!   derivatives vary fast within a piece.
+//!
+//! Unlike the block-wise model, nothing ties a block to one interpolation cycle, and the whole
+//! path is seen ahead.
 
 use crate::moves::{BlockKind, Blocks};
 use crate::plan::{Junction, Limit, Piece, Track};
+use postpro_kin::Kinematics;
+use postpro_kin::bspline::{self, Spline};
 use postpro_machine::model::{AxisKind, Machine};
+
+/// What a piece of a track is, for rebuilding the axis motion from the parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Segment {
+    /// A straight block in the axis space, parameter proportional to its progress.
+    Line,
+    /// A stretch of spline `spline` starting at its parameter `from` (the track parameter and
+    /// the spline's run at the same rate).
+    Curve {
+        /// Index into [`Curves::splines`].
+        spline: usize,
+        /// Spline parameter at the piece's start.
+        from: f64,
+    },
+}
+
+/// The splines of a B-spline track and what each piece is.
+#[derive(Clone, Debug, Default)]
+pub struct Curves {
+    /// The fitted splines, one per run written as `BSPLINE`.
+    pub splines: Vec<Spline>,
+    /// One per piece.
+    pub segments: Vec<Segment>,
+    /// The block each spline starts at (its parameter is 0 there).
+    pub start_block: Vec<usize>,
+}
 
 /// The VPOp track of G1 `blocks`: one piece per block, in tip path length (a block that only
 /// turns the tool gets the length it would have at its feed over its axis-speed duration).
 pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
-    let cnc = &machine.cnc;
-    let mut delta = vec![0.0; blocks.axes];
-    let mut other = vec![0.0; blocks.axes];
-    let mut pieces: Vec<Piece> = Vec::with_capacity(blocks.len());
-    let mut junctions: Vec<Junction> = Vec::with_capacity(blocks.len());
-    let mut owner: Vec<usize> = Vec::with_capacity(blocks.len());
-    let path_accel = cnc.tangential_accel.unwrap_or_else(|| {
-        machine.axes.iter().filter(|a| a.kind == AxisKind::Linear).map(|a| a.amax).fold(f64::INFINITY, f64::min)
-    });
-    let (mut pending_stop, mut pending_dwell, mut dwell_at_start) = (false, 0.0, 0.0);
-    let mut reference_feed = cnc.feed_max / 60.0;
+    let mut b = Builder::new(blocks, machine);
     for i in 0..blocks.len() {
-        pending_stop |= blocks.stop_before[i];
-        pending_dwell += blocks.dwell_before[i];
-        if blocks.nominal[i] <= 0.0 {
+        b.line(i);
+    }
+    b.finish()
+}
+
+/// The VPOp track of the B-spline program: each run of feed moves at one feed (between items
+/// of the CL file, rapids and stops) as the spline the emitter fits through its CL points, the
+/// rest as G1 blocks.
+pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -> (Track, Vec<usize>, Curves) {
+    let mut b = Builder::new(blocks, machine);
+    let mut curves = Curves::default();
+    let mut i = 0;
+    while i < blocks.len() {
+        let feed_move = |k: usize| matches!(blocks.kind[k], BlockKind::Feed | BlockKind::Reorientation);
+        if !feed_move(i) {
+            b.line(i);
+            curves.segments.resize(b.pieces.len(), Segment::Line);
+            i += 1;
             continue;
         }
-        blocks.delta(i, &mut delta);
-        let kind = blocks.kind[i];
-        if kind == BlockKind::Feed {
-            reference_feed = blocks.feed[i];
+        let mut end = i + 1;
+        while end < blocks.len()
+            && feed_move(end)
+            && blocks.feed[end] == blocks.feed[i]
+            && !blocks.run_break[end]
+            && !blocks.stop_before[end]
+        {
+            end += 1;
         }
-        let length = if blocks.length[i] > 1e-9 { blocks.length[i] } else { blocks.nominal[i] * reference_feed };
-        let feed = if kind == BlockKind::Rapid { f64::INFINITY } else { blocks.feed[i].max(reference_feed) };
-        let feed = if kind == BlockKind::Feed { blocks.feed[i] } else { feed };
+        if !b.curve(i..end, kin, &mut curves) {
+            for k in i..end {
+                b.line(k);
+            }
+        }
+        curves.segments.resize(b.pieces.len(), Segment::Line);
+        i = end;
+    }
+    let (track, owner) = b.finish();
+    (track, owner, curves)
+}
+
+struct Builder<'a> {
+    blocks: &'a Blocks,
+    machine: &'a Machine,
+    pieces: Vec<Piece>,
+    junctions: Vec<Junction>,
+    owner: Vec<usize>,
+    pending_stop: bool,
+    pending_dwell: f64,
+    dwell_at_start: f64,
+    /// The last feed seen (mm/s): the pace of a block that only turns the tool.
+    reference_feed: f64,
+    path_accel: f64,
+    delta: Vec<f64>,
+    other: Vec<f64>,
+    /// The block and parameter length of the last line piece, for the next corner.
+    last_line: Option<(usize, f64)>,
+}
+
+impl<'a> Builder<'a> {
+    fn new(blocks: &'a Blocks, machine: &'a Machine) -> Self {
+        let cnc = &machine.cnc;
+        Builder {
+            blocks,
+            machine,
+            pieces: Vec::with_capacity(blocks.len()),
+            junctions: Vec::with_capacity(blocks.len()),
+            owner: Vec::with_capacity(blocks.len()),
+            pending_stop: false,
+            pending_dwell: 0.0,
+            dwell_at_start: 0.0,
+            reference_feed: cnc.feed_max / 60.0,
+            path_accel: cnc.tangential_accel.unwrap_or_else(|| {
+                machine.axes.iter().filter(|a| a.kind == AxisKind::Linear).map(|a| a.amax).fold(f64::INFINITY, f64::min)
+            }),
+            delta: vec![0.0; blocks.axes],
+            other: vec![0.0; blocks.axes],
+            last_line: None,
+        }
+    }
+
+    /// The caps of block `i` as one straight piece of parameter length `length`.
+    fn line_piece(&mut self, i: usize, length: f64) -> Piece {
+        let (blocks, cnc) = (self.blocks, &self.machine.cnc);
+        let kind = blocks.kind[i];
         let mut piece = Piece {
             length,
-            velocity: feed,
+            velocity: if kind == BlockKind::Rapid { f64::INFINITY } else { blocks.feed[i].max(1e-9) },
             acceleration: f64::INFINITY,
             jerk: f64::INFINITY,
             velocity_limit: if kind == BlockKind::Rapid { Limit::Rapid } else { Limit::Programmed },
             acceleration_limit: Limit::TangentialAcceleration,
             jerk_limit: Limit::TangentialJerk,
         };
+        if kind == BlockKind::Reorientation {
+            piece.velocity = self.reference_feed;
+        }
         if kind != BlockKind::Rapid {
             piece.acceleration = cnc.tangential_accel.unwrap_or(f64::INFINITY);
             piece.jerk = cnc.tangential_jerk.unwrap_or(f64::INFINITY);
         }
-        for (index, (axis, d)) in machine.axes.iter().zip(&delta).enumerate() {
+        for (index, (axis, d)) in self.machine.axes.iter().zip(&self.delta).enumerate() {
             let qs = d.abs() / length;
             if qs > 0.0 {
                 let index = index as u16;
@@ -69,44 +170,240 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
                 tighten(&mut piece.jerk, &mut piece.jerk_limit, axis.jmax / qs, Limit::Jerk(index));
             }
         }
-        if !piece.acceleration.is_finite() {
-            piece.acceleration = 1e12;
+        finite(piece)
+    }
+
+    /// Block `i` as one straight piece.
+    fn line(&mut self, i: usize) {
+        let blocks = self.blocks;
+        self.pending_stop |= blocks.stop_before[i];
+        self.pending_dwell += blocks.dwell_before[i];
+        if blocks.nominal[i] <= 0.0 {
+            return;
         }
-        if !piece.jerk.is_finite() {
-            piece.jerk = 1e15;
+        if blocks.kind[i] == BlockKind::Feed {
+            self.reference_feed = blocks.feed[i];
         }
-        if let Some(last) = junctions.last_mut() {
-            *last = if pending_stop {
-                Junction { cap: 0.0, limit: Limit::Stop, dwell: pending_dwell }
-            } else {
-                let previous = owner[owner.len() - 1];
-                blocks.delta(previous, &mut other);
-                let cap = corner_cap(
+        blocks.delta(i, &mut self.delta);
+        let length = if blocks.length[i] > 1e-9 { blocks.length[i] } else { blocks.nominal[i] * self.reference_feed };
+        let piece = self.line_piece(i, length);
+        let corner = match self.last_line {
+            Some((previous, previous_length)) if self.owner.last() == Some(&previous) => {
+                blocks.delta(previous, &mut self.other);
+                corner_cap(
                     blocks,
-                    machine,
+                    self.machine,
                     previous,
                     i,
-                    &other,
-                    &delta,
-                    pieces[pieces.len() - 1].length,
+                    &self.other,
+                    &self.delta,
+                    previous_length,
                     length,
-                    path_accel,
-                );
-                Junction { cap, limit: Limit::Corner, dwell: 0.0 }
+                    self.path_accel,
+                )
+            }
+            // After a curve: the tip's direction changes within the tolerance's rounding.
+            _ => f64::INFINITY,
+        };
+        self.push(piece, i, corner);
+        self.last_line = Some((i, length));
+    }
+
+    /// Adds `piece` for `block`, the junction before it capped at `corner` (or a stop).
+    fn push(&mut self, piece: Piece, block: usize, corner: f64) {
+        if let Some(last) = self.junctions.last_mut() {
+            *last = if self.pending_stop {
+                Junction { cap: 0.0, limit: Limit::Stop, dwell: self.pending_dwell }
+            } else {
+                Junction { cap: corner, limit: Limit::Corner, dwell: 0.0 }
             };
         } else {
-            dwell_at_start = pending_dwell;
+            self.dwell_at_start = self.pending_dwell;
         }
-        pending_stop = false;
-        pending_dwell = 0.0;
-        pieces.push(piece);
-        junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
-        owner.push(i);
+        self.pending_stop = false;
+        self.pending_dwell = 0.0;
+        self.pieces.push(piece);
+        self.junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
+        self.owner.push(block);
     }
-    if let Some(last) = junctions.last_mut() {
-        last.dwell = pending_dwell;
+
+    /// The blocks of `run` as the spline through their CL points; false when the emitter would
+    /// write them as G1 (too few points, or no fit within the tolerance).
+    fn curve(&mut self, run: std::ops::Range<usize>, kin: &dyn Kinematics, curves: &mut Curves) -> bool {
+        let blocks = self.blocks;
+        let start = run.start;
+        let cl: Vec<usize> = run.clone().filter(|&b| blocks.cl[b]).collect();
+        let joints: Vec<_> = std::iter::once(start)
+            .chain(cl.iter().map(|b| b + 1))
+            .map(|p| postpro_kin::Joints::from_slice(blocks.position(p)))
+            .collect();
+        let poses: Vec<_> = std::iter::once(start).chain(cl.iter().map(|b| b + 1)).map(|p| blocks.pose(p)).collect();
+        let policy = &self.machine.policy;
+        let Some((spline, poses, index)) = bspline::fit_indexed(
+            kin,
+            &bspline::Run { joints: &joints, poses: &poses },
+            policy.linearization_tolerance,
+            policy.singular_cone,
+        ) else {
+            return false;
+        };
+        for b in run.clone() {
+            self.pending_stop |= blocks.stop_before[b] && b == start;
+            self.pending_dwell += blocks.dwell_before[b];
+        }
+        let feed = blocks.feed[start];
+        if blocks.kind[start] == BlockKind::Feed {
+            self.reference_feed = feed;
+        }
+        let params = bspline::chord_params(&poses);
+        let which = curves.splines.len();
+        let mut corner = match self.last_line {
+            Some((previous, _)) if self.owner.last() == Some(&previous) => {
+                let tangent = poses.get(1).map_or(nalgebra::Vector3::zeros(), |p| p.tip - poses[0].tip);
+                crate::corner::corner_speed(
+                    &blocks.direction(previous),
+                    &tangent,
+                    self.machine.cnc.contour_tolerance,
+                    self.path_accel,
+                    self.machine.cnc.curvature_accel_share,
+                )
+            }
+            _ => f64::INFINITY,
+        };
+        // Data interval `d` ends at run point `r` (the CL block cl[r - 1]) once index[r] > d.
+        let mut r = 1;
+        for d in 0..params.len() - 1 {
+            while r < index.len() && index[r] <= d {
+                r += 1;
+            }
+            let block = cl[(r - 1).min(cl.len() - 1)];
+            // Four pieces per data interval, also cut at the knots: within a knot span the
+            // third derivative is constant and the second linear, so their worst is at the ends.
+            const PIECES: usize = 4;
+            let (s0, s1) = (params[d], params[d + 1]);
+            let mut cuts: Vec<f64> = (0..=PIECES).map(|k| s0 + (s1 - s0) * k as f64 / PIECES as f64).collect();
+            cuts.extend(spline.knots.iter().copied().filter(|&k| k > s0 && k < s1));
+            cuts.sort_by(f64::total_cmp);
+            cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * (s1 - s0).max(1e-9));
+            for w in cuts.windows(2) {
+                let (from, to) = (w[0], w[1]);
+                let piece = self.curve_piece(&spline, kin, from, to, feed);
+                self.push(piece, block, corner);
+                curves.segments.resize(self.pieces.len() - 1, Segment::Line);
+                curves.segments.push(Segment::Curve { spline: which, from });
+                corner = f64::INFINITY;
+            }
+        }
+        curves.splines.push(spline);
+        curves.start_block.push(start);
+        self.last_line = None;
+        true
     }
-    (Track { pieces, junctions, window: usize::MAX, dwell_at_start }, owner)
+
+    /// The caps of the spline between parameters `from` and `to`.
+    fn curve_piece(&self, spline: &Spline, kin: &dyn Kinematics, from: f64, to: f64, feed: f64) -> Piece {
+        let axes = &self.machine.axes;
+        let cnc = &self.machine.cnc;
+        let mut worst = vec![[0.0_f64; 3]; axes.len()];
+        let mut tip_rate: f64 = 0.0;
+        const PROBES: usize = 6;
+        // Probes just inside the ends: the derivatives of the span the piece lies in.
+        let inset = 1e-9 * (to - from);
+        for p in 0..=PROBES {
+            let s = (from + (to - from) * p as f64 / PROBES as f64).clamp(from + inset, to - inset);
+            let d = spline.derivatives(s);
+            for (a, w) in worst.iter_mut().enumerate() {
+                for order in 0..3 {
+                    w[order] = w[order].max(d[order + 1][a].abs());
+                }
+            }
+            // The tip's rate along the parameter, from the forward kinematics.
+            let h = 1e-3 * (to - from).max(1e-9);
+            let (x0, x1) = (kin.forward(&spline.at(s - h)).tip, kin.forward(&spline.at(s + h)).tip);
+            tip_rate = tip_rate.max((x1 - x0).norm() / (2.0 * h));
+        }
+        let mut piece = Piece {
+            length: to - from,
+            velocity: if tip_rate > 0.0 { feed / tip_rate } else { feed },
+            acceleration: cnc.tangential_accel.map_or(f64::INFINITY, |a| a / tip_rate.max(1e-9)),
+            jerk: cnc.tangential_jerk.map_or(f64::INFINITY, |j| j / tip_rate.max(1e-9)),
+            velocity_limit: Limit::Programmed,
+            acceleration_limit: Limit::TangentialAcceleration,
+            jerk_limit: Limit::TangentialJerk,
+        };
+        // The first derivative is quadratic within a span: a margin for its peak between probes.
+        for w in &mut worst {
+            w[0] *= 1.01;
+        }
+        // Paper 003's quick bound, at 0.8 of it so that the curvature terms leave room.
+        for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
+            let index = index as u16;
+            let mut bound = f64::INFINITY;
+            let mut why = Limit::Velocity(index);
+            for (cap, limit) in [
+                (axis.vmax / q1, Limit::Velocity(index)),
+                ((axis.amax / q2).sqrt(), Limit::Acceleration(index)),
+                ((axis.jmax / q3).cbrt(), Limit::Jerk(index)),
+            ] {
+                if cap < bound {
+                    bound = cap;
+                    why = limit;
+                }
+            }
+            tighten(&mut piece.velocity, &mut piece.velocity_limit, 0.8 * bound, why);
+        }
+        let v = piece.velocity;
+        for (index, (axis, [q1, q2, _])) in axes.iter().zip(&worst).enumerate() {
+            if *q1 <= 0.0 {
+                continue;
+            }
+            let index = index as u16;
+            let a_cap = (axis.amax - q2 * v * v) / q1;
+            tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_cap, Limit::Acceleration(index));
+        }
+        let a = piece.acceleration.min(1e12);
+        for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
+            if *q1 <= 0.0 {
+                continue;
+            }
+            let index = index as u16;
+            // What the jerk of the parameter may use once the curvature terms at (v, a) are paid;
+            // where they leave little, the acceleration is lowered instead.
+            let mut j_cap = (axis.jmax - q3 * v * v * v - 3.0 * q2 * v * a) / q1;
+            if j_cap < 0.1 * axis.jmax / q1 {
+                j_cap = 0.1 * axis.jmax / q1;
+                let a_room = (0.9 * axis.jmax - q3 * v * v * v).max(0.0) / (3.0 * q2 * v).max(1e-12);
+                tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_room, Limit::Jerk(index));
+            }
+            tighten(&mut piece.jerk, &mut piece.jerk_limit, j_cap, Limit::Jerk(index));
+        }
+        finite(piece)
+    }
+
+    fn finish(mut self) -> (Track, Vec<usize>) {
+        if let Some(last) = self.junctions.last_mut() {
+            last.dwell = self.pending_dwell;
+        }
+        (
+            Track {
+                pieces: self.pieces,
+                junctions: self.junctions,
+                window: usize::MAX,
+                dwell_at_start: self.dwell_at_start,
+            },
+            self.owner,
+        )
+    }
+}
+
+fn finite(mut piece: Piece) -> Piece {
+    if !piece.acceleration.is_finite() || piece.acceleration <= 0.0 {
+        piece.acceleration = if piece.acceleration <= 0.0 { 1e-6 } else { 1e12 };
+    }
+    if !piece.jerk.is_finite() {
+        piece.jerk = 1e15;
+    }
+    piece
 }
 
 fn tighten(cap: &mut f64, why: &mut Limit, candidate: f64, limit: Limit) {

@@ -151,7 +151,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         stage("predicting the feed");
         let predicted = predict::run(&job, mode, &args.prediction, false);
         let annotations = predict::annotations(&predicted, machine, args.prediction.threshold());
-        let summary = predict::header(&predicted, &args.prediction, annotations.len());
+        let summary = predict::header(&predicted, &args.prediction, mode, annotations.len());
         (Some(summary), annotations)
     };
     stage("writing the program");

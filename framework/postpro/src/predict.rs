@@ -105,7 +105,8 @@ pub(crate) fn run(job: &Job, mode: Mode, args: &PredictionArgs, samples: bool) -
 fn run_with(job: &Job, mode: Mode, planner: Planner, threshold: f64, samples: bool, period: Option<f64>) -> Prediction {
     let timing = if mode == Mode::G1 { Timing::AxisFeed } else { Timing::TipFeed };
     let blocks = postpro_predict::blocks(&job.path, &job.solved, &job.machine, timing);
-    let options = postpro_predict::Options { planner, threshold, samples, period };
+    let splines = mode == Mode::Bspline;
+    let options = postpro_predict::Options { planner, threshold, samples, period, splines };
     postpro_predict::predict(&blocks, job.solver.kinematics(), &options)
 }
 
@@ -127,16 +128,27 @@ pub(crate) fn annotations(prediction: &Prediction, machine: &Machine, threshold:
 }
 
 /// The header summary of the NC program.
-pub(crate) fn header(prediction: &Prediction, args: &PredictionArgs, count: usize) -> postpro_emit::Prediction {
+pub(crate) fn header(
+    prediction: &Prediction,
+    args: &PredictionArgs,
+    mode: Mode,
+    count: usize,
+) -> postpro_emit::Prediction {
     let totals = prediction.totals();
     postpro_emit::Prediction {
         cycle_time: totals.cycle_time,
         time_lost: totals.time_lost.max(0.0),
         threshold: args.threshold(),
         share_below: totals.share_below(),
-        planner: planner_name(args.planner()).to_string(),
+        planner: planner_name(effective(args.planner(), mode)).to_string(),
         slowdowns: count,
     }
+}
+
+/// The planner that runs: B-spline output is always followed with VPOp (the block-wise model has
+/// no splines).
+fn effective(planner: Planner, mode: Mode) -> Planner {
+    if mode == Mode::Bspline { Planner::Vpop } else { planner }
 }
 
 fn planner_name(p: Planner) -> &'static str {
@@ -163,7 +175,7 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     };
     let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some();
     let mode = args.mode.mode();
-    let planner = args.prediction.planner();
+    let planner = effective(args.prediction.planner(), mode);
     let started = std::time::Instant::now();
     let prediction =
         run_with(&job, mode, planner, args.prediction.threshold(), samples, args.period.map(|ms| ms / 1000.0));

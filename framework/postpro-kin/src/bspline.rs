@@ -1,5 +1,5 @@
-//! Siemens `BSPLINE` output: a clamped cubic B-spline through the joint positions of a run of
-//! feed moves (global interpolation, The NURBS Book §9.2.1: parameters by the part-space chord
+//! The B-spline a Siemens CNC interpolates in `BSPLINE` output: a clamped cubic through the
+//! joint positions of a run of feed moves (global interpolation, The NURBS Book §9.2.1: parameters by the part-space chord
 //! length of the tool tip, knots by averaging), whose control points and knot intervals the CNC
 //! takes as `X… Y… … PL=…` blocks after `BSPLINE SD=3`. Following paper 003's example, the first
 //! and the last block carry `PL=0` and each block in between the length of one knot span.
@@ -8,7 +8,7 @@
 //! forward kinematics, the tool tip must stay within the tolerance of the programmed segment;
 //! where it does not, the segment's midpoint is added to the data and the run is fitted again.
 
-use postpro_kin::{Joints, Kinematics, Pose, Solutions};
+use crate::{Joints, Kinematics, Pose, Solutions};
 
 /// Degree of the spline (`SD=3`).
 pub const DEGREE: usize = 3;
@@ -55,6 +55,90 @@ impl Spline {
         }
         d[DEGREE]
     }
+}
+
+impl Spline {
+    /// The joint values and their first three derivatives with respect to the parameter at `u`
+    /// (The NURBS Book A2.3 and eq. 3.3): what the prediction needs for `q_s`, `q_ss`, `q_sss`.
+    pub fn derivatives(&self, u: f64) -> [Joints; DEGREE + 1] {
+        let n = self.control.len();
+        let (lo, hi) = self.domain();
+        let u = u.clamp(lo, hi);
+        let span = find_span(&self.knots, n, u);
+        let ders = basis_derivatives(&self.knots, span, u);
+        let axes = self.control[0].len();
+        let mut out = [Joints::zeros(axes); DEGREE + 1];
+        for (k, row) in ders.iter().enumerate() {
+            for (j, b) in row.iter().enumerate() {
+                let c = &self.control[span - DEGREE + j];
+                for a in 0..axes {
+                    out[k][a] += b * c[a];
+                }
+            }
+        }
+        out
+    }
+}
+
+/// `ders[k][j]`: the `k`-th derivative of the basis function `span − DEGREE + j` at `u`
+/// (The NURBS Book A2.3), zero over repeated knots.
+fn basis_derivatives(knots: &[f64], span: usize, u: f64) -> [[f64; DEGREE + 1]; DEGREE + 1] {
+    const P: usize = DEGREE;
+    let div = |x: f64, y: f64| if y != 0.0 { x / y } else { 0.0 };
+    let mut ndu = [[0.0; P + 1]; P + 1];
+    ndu[0][0] = 1.0;
+    let (mut left, mut right) = ([0.0; P + 1], [0.0; P + 1]);
+    for j in 1..=P {
+        left[j] = u - knots[span + 1 - j];
+        right[j] = knots[span + j] - u;
+        let mut saved = 0.0;
+        for r in 0..j {
+            ndu[j][r] = right[r + 1] + left[j - r];
+            let temp = div(ndu[r][j - 1], ndu[j][r]);
+            ndu[r][j] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        ndu[j][j] = saved;
+    }
+    let mut ders = [[0.0; P + 1]; P + 1];
+    for j in 0..=P {
+        ders[0][j] = ndu[j][P];
+    }
+    for r in 0..=P {
+        let mut a = [[0.0; P + 1]; 2];
+        let (mut s1, mut s2) = (0, 1);
+        a[0][0] = 1.0;
+        for k in 1..=P {
+            let mut d = 0.0;
+            let rk = r as isize - k as isize;
+            let pk = P - k;
+            if r >= k {
+                a[s2][0] = div(a[s1][0], ndu[pk + 1][r - k]);
+                d = a[s2][0] * ndu[r - k][pk];
+            }
+            let j1 = if rk >= -1 { 1 } else { (-rk) as usize };
+            let j2 = if r as isize - 1 <= pk as isize { k - 1 } else { P - r };
+            for j in j1..=j2 {
+                let i = (rk + j as isize) as usize;
+                a[s2][j] = div(a[s1][j] - a[s1][j - 1], ndu[pk + 1][i]);
+                d += a[s2][j] * ndu[i][pk];
+            }
+            if r <= pk {
+                a[s2][k] = div(-a[s1][k - 1], ndu[pk + 1][r]);
+                d += a[s2][k] * ndu[r][pk];
+            }
+            ders[k][r] = d;
+            std::mem::swap(&mut s1, &mut s2);
+        }
+    }
+    let mut factor = P as f64;
+    for (k, row) in ders.iter_mut().enumerate().skip(1) {
+        for d in row.iter_mut() {
+            *d *= factor;
+        }
+        factor *= (P - k) as f64;
+    }
+    ders
 }
 
 /// The clamped cubic through `points` at parameters `params` (strictly increasing), or `None`
@@ -206,9 +290,9 @@ pub fn fit_indexed(
         for &s in worst.iter().rev() {
             let (p, q) = (poses[s], poses[s + 1]);
             let pose =
-                Pose { tip: p.tip + (q.tip - p.tip) * 0.5, axis: postpro_kin::linearize::slerp(&p.axis, &q.axis, 0.5) };
+                Pose { tip: p.tip + (q.tip - p.tip) * 0.5, axis: crate::linearize::slerp(&p.axis, &q.axis, 0.5) };
             let near = joints[s].lerp(&joints[s + 1], 0.5);
-            let mid = postpro_kin::linearize::nearest_solution(kin, &pose, &near, singular_cone, &mut sols)?;
+            let mid = crate::linearize::nearest_solution(kin, &pose, &near, singular_cone, &mut sols)?;
             joints.insert(s + 1, mid);
             poses.insert(s + 1, pose);
         }
@@ -216,8 +300,9 @@ pub fn fit_indexed(
     None
 }
 
-/// Cumulative chord length of the tool tip, with a floor so parameters strictly increase.
-fn chord_params(poses: &[Pose]) -> Vec<f64> {
+/// Cumulative chord length of the tool tip, with a floor so parameters strictly increase: the
+/// spline's parameter at each point.
+pub fn chord_params(poses: &[Pose]) -> Vec<f64> {
     let mut params = Vec::with_capacity(poses.len());
     let mut u = 0.0;
     params.push(u);
@@ -254,6 +339,23 @@ mod tests {
         assert_eq!(spline.control[0], points[0]);
         assert_eq!(spline.pl(1), 0.0);
         assert_eq!(spline.pl(11), 0.0);
+        // The derivatives are those of the curve (central differences).
+        for &u in &[0.3, 2.0, 5.55, 9.9, 14.0] {
+            let d = spline.derivatives(u);
+            let h = 1e-4;
+            let (m, p) = (spline.derivatives(u - h), spline.derivatives(u + h));
+            for a in 0..3 {
+                assert!((d[0][a] - spline.at(u)[a]).abs() < 1e-9);
+                for k in 1..4 {
+                    let fd = (p[k - 1][a] - m[k - 1][a]) / (2.0 * h);
+                    assert!(
+                        (d[k][a] - fd).abs() < 1e-4 * (1.0 + fd.abs()),
+                        "order {k} axis {a} at {u}: {} vs {fd}",
+                        d[k][a]
+                    );
+                }
+            }
+        }
         let spans: f64 = (1..=11).map(|k| spline.pl(k)).sum();
         assert!((spans - (params[11] - params[0])).abs() < 1e-9, "the PL add up to the parameter range");
     }
