@@ -191,7 +191,7 @@ impl Topology {
 pub struct CncParams {
     /// Interpolation cycle time (s).
     pub cycle_time: f64,
-    /// Blocks the look-ahead sees.
+    /// Blocks beyond the current one the CNC plans with (its look-ahead).
     pub look_ahead: usize,
     /// Contour tolerance for corner rounding (mm).
     pub contour_tolerance: f64,

@@ -9,7 +9,8 @@
 //! `sqrt(R · A · (1 − share))`, and each axis's velocity may jump by no more than
 //! `sqrt(e · Amax_j)` (paper 001's per-axis deviation `e = Δv² / Amax`, with `e` read in the
 //! axis's NC unit: mm, or degrees for a rotary axis). Rapids, tool changes, spindle changes,
-//! dwells and stops are exact stops. The look-ahead sees `cnc.look_ahead` blocks.
+//! dwells and stops are exact stops. The look-ahead sees the current block and `cnc.look_ahead`
+//! more: the motion can always stop at the end of the last one.
 
 use crate::block::{Limiter, block_limits};
 use crate::corner::corner_speed;
@@ -64,7 +65,9 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
     if let Some(last) = junctions.last_mut() {
         last.dwell = pending_dwell;
     }
-    let window = cnc.look_ahead.max(1);
+    // Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
+    // N + 10 is taken into account": the current block and `look_ahead` more.
+    let window = cnc.look_ahead.saturating_add(1);
     (Track { pieces, junctions, window, dwell_at_start }, owner)
 }
 
