@@ -95,7 +95,12 @@ pub fn predict(blocks: &Blocks, kin: &dyn Kinematics, options: &Options) -> Pred
     );
     let cycle_time = plan::run(&track, period, &mut collector);
     collector.finish();
-    let programmed_time: f64 = blocks.nominal.iter().sum::<f64>() + blocks.dwell_before.iter().sum::<f64>();
+    // The time the program asks for: feed moves at their programmed feed; rapids and
+    // reorientations (which have no feed to keep) as predicted; dwells.
+    let programmed_time: f64 = (0..blocks.len())
+        .map(|i| if blocks.kind[i] == BlockKind::Feed { blocks.nominal[i] } else { collector.results[i].time })
+        .sum::<f64>()
+        + blocks.dwell_before.iter().sum::<f64>();
     let feed_length =
         blocks.length.iter().zip(&blocks.kind).filter(|(_, k)| **k == BlockKind::Feed).map(|(l, _)| l).sum();
     let totals = Totals {

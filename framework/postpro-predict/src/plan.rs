@@ -42,6 +42,9 @@ pub enum Limit {
     Stop,
     /// A rapid traverse, at the axes' speed.
     Rapid,
+    /// The block runs at its programmed F, but F is the feed of the linear axes (G1 without
+    /// TCP): the tool tip moves slower than the CL file's feed.
+    AxisFeed,
 }
 
 /// A piece of the track: constant caps on the parameter's derivatives, and why each holds.
@@ -178,6 +181,7 @@ impl Stepper<'_> {
         loop {
             guard += 1;
             let piece = self.track.pieces[self.k];
+            let piece_was = self.k;
             let (j, limit) = self.choose();
             if self.caps[self.k].0 <= 0.0
                 && let Some(tau) = final_phase(self.a, j, self.h)
@@ -274,9 +278,17 @@ impl Stepper<'_> {
             self.v = v1;
             let piece_now = self.k.min(n - 1);
             // Across a junction the axes' accelerations jump with their directions anyway (the
-            // corner is rounded within the tolerance): the next piece's cap holds from there.
-            let a_cap = self.track.pieces[piece_now].acceleration;
-            self.a = a1.clamp(-a_cap, a_cap);
+            // corner is rounded within the tolerance): the next piece's caps hold from there,
+            // and so does its jerk: a deceleration it could not end before the speed reaches 0,
+            // or an acceleration it could not end under its speed cap, is eased at the junction.
+            self.a = if piece_now == piece_was {
+                a1
+            } else {
+                let q = &self.track.pieces[piece_now];
+                let low = -(2.0 * q.jerk * v1.max(0.0)).sqrt();
+                let high = (2.0 * q.jerk * (q.velocity - v1).max(0.0)).sqrt();
+                a1.clamp(low.max(-q.acceleration), high.min(q.acceleration))
+            };
             let shown = if v1 >= 0.999 * self.track.pieces[piece_now].velocity {
                 self.track.pieces[piece_now].velocity_limit
             } else {
@@ -346,8 +358,11 @@ impl Stepper<'_> {
                 reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
             }
             let at = self.ends[m];
-            if at - u1 > reach {
-                break; // the motion can stop before this junction: nothing further binds
+            // Beyond the braking reach nothing binds yet. Reaching a cap above 0 can take up to
+            // an eighth more room than stopping (jerk-limited braking to v0/3 from v0, or to
+            // A²/2J), hence the margin: a junction must be seen before its braking begins.
+            if at - u1 > 1.25 * reach {
+                break;
             }
             let (cap, why) = if m == last && m + 1 < n { (0.0, Limit::LookAhead) } else { self.caps[m] };
             // The motion stops at a junction capped at 0: nothing after it matters.
@@ -370,7 +385,13 @@ impl Stepper<'_> {
             if !fits(j) {
                 limit = why;
 
-                j = largest_fitting(&slack, floor, j);
+                j = if fits(floor) {
+                    largest_fitting(&slack, floor, j)
+                } else {
+                    // The strongest braking does not fit either: the state braked too hard
+                    // already, and easing is what helps. The best in the interval.
+                    largest_fitting_unimodal(&slack, floor, j)
+                };
                 (u1, v1, a1) = advance(u, v, a, j, h);
             }
             if stop {
@@ -420,6 +441,27 @@ fn largest_fitting(slack: &dyn Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 
         }
     }
     lo
+}
+
+/// The largest jerk in `[lo, hi]` whose `slack` is not negative when `slack` may rise then fall
+/// over the interval: a scan down from `hi`, then regula falsi between the first safe point and
+/// the unsafe one above it; with no safe point, the safest one.
+fn largest_fitting_unimodal(slack: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+    const STEPS: usize = 16;
+    let mut above = hi;
+    let mut best = (f64::NEG_INFINITY, lo);
+    for i in 0..=STEPS {
+        let x = hi - (hi - lo) * i as f64 / STEPS as f64;
+        let f = slack(x);
+        if f >= 0.0 {
+            return if i == 0 { x } else { largest_fitting(slack, x, above) };
+        }
+        if f > best.0 {
+            best = (f, x);
+        }
+        above = x;
+    }
+    best.1
 }
 
 /// The time left in a braking's last phase (the deceleration `a` eased to 0 at jerk `j`), when
@@ -472,9 +514,6 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
         let t = (d - amax) / jr;
         let v1 = v + a * t + jr * t * t / 2.0;
         let d1 = v * t + a * t * t / 2.0 + jr * t * t * t / 6.0;
-        if v1 <= w {
-            return d1.min(first_time_distance(v, a, jr, w));
-        }
         return d1 + reach_distance(v1, -amax, w, amax, jmax, jnow);
     }
     let v_end = v - d * d / (2.0 * jmax);
@@ -485,18 +524,19 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
         let t = d / jmax;
         let before = virtual_v * t - jmax * t * t * t / 6.0;
         (speed_change(virtual_v, w, amax, jmax).0 - before).max(0.0)
+    } else if v_end >= -1e-9 * (1.0 + v) {
+        // Easing the deceleration now already ends below the cap: the braking ends there, its
+        // acceleration back to 0 (a junction is never crossed still braking hard for it, which
+        // the next block's jerk may not be able to end).
+        let t = d / jmax;
+        v * t + a * t * t / 2.0 + jmax * t * t * t / 6.0
     } else {
-        first_time_distance(v, a, jmax, w)
+        // Braked too hard already: the speed reaches 0 before the deceleration can be ended.
+        // Safe (slow: the motion stops short and starts again): the distance to that halt.
+        let disc = (a * a - 2.0 * jmax * v).max(0.0);
+        let tau = (-a - disc.sqrt()) / jmax;
+        v * tau + a * tau * tau / 2.0 + jmax * tau * tau * tau / 6.0
     }
-}
-
-/// The distance until the speed first falls to `w` while the deceleration `a < 0` is eased at
-/// jerk `j` (the speed is then still above `w` when the acceleration reaches 0 otherwise).
-fn first_time_distance(v: f64, a: f64, j: f64, w: f64) -> f64 {
-    // v + a τ + j τ²/2 = w, smallest positive root.
-    let disc = a * a - 2.0 * j * (v - w);
-    let tau = if disc <= 0.0 { -a / j } else { (-a - disc.sqrt()) / j };
-    v * tau + a * tau * tau / 2.0 + j * tau * tau * tau / 6.0
 }
 
 /// The time within `(0, h]` at which the parameter reaches `target`: Newton on the cubic,

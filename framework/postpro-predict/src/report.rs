@@ -170,6 +170,11 @@ impl Prediction {
     }
 }
 
+/// mm/s → mm/min, rounded to a millionth (a feed read as 500 mm/min stays 500).
+fn per_minute(feed: f64) -> f64 {
+    (feed * 60.0 * 1e6).round() / 1e6
+}
+
 /// The words a programmer reads for a limit: `C jerk`, `corner`, `cycle time`.
 pub fn describe(limit: Limit, machine: &Machine) -> String {
     let letter = |a: u16| machine.axes.get(a as usize).map_or_else(|| format!("axis {a}"), |x| x.letter.clone());
@@ -185,6 +190,7 @@ pub fn describe(limit: Limit, machine: &Machine) -> String {
         Limit::LookAhead => "look-ahead".into(),
         Limit::Stop => "exact stop".into(),
         Limit::Rapid => "rapid".into(),
+        Limit::AxisFeed => "G1 feed on the axes".into(),
     }
 }
 
@@ -248,7 +254,7 @@ impl<'a> Collector<'a> {
         }
         let results = (0..blocks.len())
             .map(|i| {
-                let programmed = blocks.feed[i] * 60.0;
+                let programmed = per_minute(blocks.feed[i]);
                 BlockResult {
                     step: blocks.step[i],
                     kind: blocks.kind[i],
@@ -287,9 +293,22 @@ impl<'a> Collector<'a> {
     fn reach(&mut self, block: usize, v: f64, limit: Limit) {
         if v < self.min_speed[block] {
             self.min_speed[block] = v;
-            let feed = self.blocks.feed[block];
-            let reached = feed > 0.0 && v * self.scale[block] >= 0.999 * feed;
-            self.results[block].limit = if reached { Limit::Programmed } else { limit };
+            self.results[block].limit = self.shown(block, v, limit);
+        }
+    }
+
+    /// What to report for parameter speed `v` on `block` held by `limit`: `Programmed` when
+    /// the tip reaches the programmed feed, `AxisFeed` when the CNC is at its F but the tip is
+    /// not (G1 timing).
+    fn shown(&self, block: usize, v: f64, limit: Limit) -> Limit {
+        let feed = self.blocks.feed[block];
+        let tip = v * self.scale[block];
+        if feed > 0.0 && tip >= 0.999 * feed {
+            Limit::Programmed
+        } else if limit == Limit::Programmed && self.blocks.kind[block] == BlockKind::Feed {
+            Limit::AxisFeed
+        } else {
+            limit
         }
     }
 
@@ -326,6 +345,7 @@ impl Observer for Collector<'_> {
             }
         }
         self.last_sample = Some((s.u, s.piece));
+        let shown = self.shown(block, s.v, s.limit);
         let Some(samples) = self.samples.as_mut() else { return };
         let fraction = ((s.u - self.piece_start[s.piece]) / length).clamp(0.0, 1.0);
         match self.curves.and_then(|c| c.segments.get(s.piece).map(|g| (c, *g))) {
@@ -359,8 +379,8 @@ impl Observer for Collector<'_> {
         samples.time.push(s.t);
         samples.block.push(block as u32);
         samples.feed.push(s.v * tip_feed * 60.0);
-        samples.programmed.push(self.blocks.feed[block] * 60.0);
-        samples.limit.push(s.limit);
+        samples.programmed.push(per_minute(self.blocks.feed[block]));
+        samples.limit.push(shown);
         let relative = match self.kin {
             Some(kin) => {
                 let n = samples.position.len();

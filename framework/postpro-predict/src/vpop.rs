@@ -142,7 +142,8 @@ impl<'a> Builder<'a> {
         let kind = blocks.kind[i];
         let mut piece = Piece {
             length,
-            velocity: if kind == BlockKind::Rapid { f64::INFINITY } else { blocks.feed[i].max(1e-9) },
+            // The tip speed the program asks for: the feed, or less in G1 timing (F on the axes).
+            velocity: if kind == BlockKind::Rapid { f64::INFINITY } else { blocks.nominal_tip_feed(i).max(1e-9) },
             acceleration: f64::INFINITY,
             jerk: f64::INFINITY,
             velocity_limit: if kind == BlockKind::Rapid { Limit::Rapid } else { Limit::Programmed },

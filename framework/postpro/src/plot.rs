@@ -13,15 +13,11 @@
 //! estimates text extents for its layout, so no font file, fontconfig or freetype is needed to
 //! write the picture; the viewer's sans-serif font draws the text.
 //!
-//! The picture is rendered in memory, written to a temporary file beside the target and then
-//! renamed over it, so a reader never sees a half-written file.
+//! The picture is rendered in memory ([`render`]); the command writes it with its other exports,
+//! all or none.
 
 use std::fmt::Display;
-use std::fs::{self, File};
-use std::io::Write;
 use std::ops::Range;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
@@ -91,15 +87,6 @@ pub(crate) enum PlotError {
     /// plotters failed to draw.
     #[error("cannot draw the plot: {0}")]
     Draw(String),
-    /// The file could not be written (the path, the system's message).
-    #[error("cannot write {path}: {message}", path = .0.display(), message = .1)]
-    Io(PathBuf, String),
-}
-
-/// Writes the report to `out` as SVG (atomically: a temporary file beside it, then a rename).
-pub(crate) fn write_svg(report: &Report, out: &Path) -> Result<(), PlotError> {
-    let svg = render(report)?;
-    write_atomically(out, &svg)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -137,8 +124,10 @@ const GRID_LIGHT: RGBColor = RGBColor(244, 244, 244);
 const PROGRAMMED: RGBColor = RGBColor(160, 160, 160);
 const RELATIVE: RGBColor = RGBColor(0, 0, 0);
 const SUBTITLE: RGBColor = RGBColor(70, 70, 70);
-/// Tableau 10 without its grey: distinct, and readable on white.
-const PALETTE: [RGBColor; 9] = [
+/// Tableau 10 without its grey, then Kelly's colours of maximum contrast that differ from them:
+/// distinct, and readable on white. A real program meets a dozen limiters and more (three per
+/// axis, corner, look-ahead, stop, rapid…): each needs its own colour for the legend to read.
+const PALETTE: [RGBColor; 22] = [
     RGBColor(31, 119, 180),  // blue
     RGBColor(255, 127, 14),  // orange
     RGBColor(214, 39, 40),   // red
@@ -148,6 +137,19 @@ const PALETTE: [RGBColor; 9] = [
     RGBColor(227, 119, 194), // pink
     RGBColor(188, 189, 34),  // olive
     RGBColor(23, 190, 207),  // cyan
+    RGBColor(0, 83, 138),    // strong blue
+    RGBColor(255, 179, 0),   // vivid yellow
+    RGBColor(128, 62, 117),  // strong purple
+    RGBColor(0, 125, 52),    // vivid green
+    RGBColor(127, 24, 13),   // strong reddish brown
+    RGBColor(246, 118, 142), // strong purplish pink
+    RGBColor(147, 170, 0),   // vivid yellowish green
+    RGBColor(83, 55, 122),   // strong violet
+    RGBColor(206, 162, 98),  // greyish yellow
+    RGBColor(241, 58, 19),   // vivid reddish orange
+    RGBColor(89, 51, 21),    // deep yellowish brown
+    RGBColor(166, 189, 215), // very light blue
+    RGBColor(179, 40, 81),   // strong purplish red
 ];
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
@@ -159,7 +161,8 @@ fn draw_error(e: impl Display) -> PlotError {
 }
 
 /// The whole picture as SVG text.
-fn render(report: &Report) -> Result<String, PlotError> {
+/// The SVG text of the report.
+pub(crate) fn render(report: &Report) -> Result<String, PlotError> {
     check(report)?;
     let x_range = x_range(&report.path_mm).ok_or(PlotError::Empty)?;
     let mut svg = String::with_capacity(256 * 1024);
@@ -667,42 +670,10 @@ fn push_extremes(path: &[f64], bucket: &Bucket, points: &mut Vec<(f64, f64)>) {
 // ---------------------------------------------------------------------------------------------
 // Output.
 
-/// Writes `text` to a temporary file in `out`'s directory, then renames it to `out`; on any
-/// failure the temporary file is removed and `out` is left as it was.
-fn write_atomically(out: &Path, text: &str) -> Result<(), PlotError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let io_error = |message: String| PlotError::Io(out.to_path_buf(), message);
-    let name = out.file_name().ok_or_else(|| io_error("not a file name".into()))?;
-    let dir = match out.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir,
-        _ => Path::new("."),
-    };
-    let unique = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let temporary = dir.join(format!(".{}.{}-{unique}.tmp", name.to_string_lossy(), std::process::id()));
-    let written = File::create(&temporary).and_then(|mut file| {
-        file.write_all(text.as_bytes())?;
-        file.sync_all()
-    });
-    let renamed = written.and_then(|()| fs::rename(&temporary, out));
-    if let Err(e) = renamed {
-        let _ = fs::remove_file(&temporary);
-        return Err(io_error(e.to_string()));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 #[allow(clippy::unwrap_used)] // a failed unwrap is a failed test
 mod tests {
     use super::*;
-
-    /// A fresh directory for one test.
-    fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("postpro-plot-{}-{name}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).unwrap();
-        dir
-    }
 
     /// A 5-axis slowdown: 5000 mm/min programmed, dips at corners limited by C jerk and by the
     /// corner tolerance, X Y Z A C.
@@ -783,12 +754,9 @@ mod tests {
 
     #[test]
     fn small_report_has_title_and_legends() {
-        let dir = scratch("small");
-        let out = dir.join("feed.svg");
         let mut report = synthetic(2000);
         report.title = "Feed <prediction> & limits".into();
-        write_svg(&report, &out).unwrap();
-        let svg = fs::read_to_string(&out).unwrap();
+        let svg = render(&report).unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         let texts = texts(&svg);
         let has = |text: &str| texts.iter().any(|t| t == text);
@@ -808,23 +776,13 @@ mod tests {
             assert!(has(axis), "{axis}");
         }
         assert!(has("relative (forward kin.)"));
-        // No temporary file left behind.
-        assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
-        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn million_samples_stay_small() {
-        let dir = scratch("million");
-        let out = dir.join("feed.svg");
         let report = synthetic(1_000_000);
-        let started = std::time::Instant::now();
-        write_svg(&report, &out).unwrap();
-        let elapsed = started.elapsed();
-        let size = fs::metadata(&out).unwrap().len();
+        let size = render(&report).unwrap().len();
         assert!(size < 2_000_000, "{size} bytes");
-        eprintln!("1 M samples: {size} bytes in {elapsed:?}");
-        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
@@ -906,20 +864,6 @@ mod tests {
         report.limiter.iter_mut().enumerate().for_each(|(i, l)| *l = (i % 40) as u16);
         let svg = render(&report).unwrap();
         assert!(svg.contains("more"));
-    }
-
-    #[test]
-    fn write_failure_leaves_nothing() {
-        let dir = scratch("failure");
-        let out = dir.join("missing-dir").join("feed.svg");
-        assert!(matches!(write_svg(&synthetic(10), &out), Err(PlotError::Io(..))));
-        assert_eq!(fs::read_dir(&dir).unwrap().count(), 0);
-        // Rewriting replaces the file whole.
-        let out = dir.join("feed.svg");
-        write_svg(&synthetic(10), &out).unwrap();
-        write_svg(&synthetic(20), &out).unwrap();
-        assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
-        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -12,7 +12,7 @@ use postpro_emit::{Annotation, Mode};
 use postpro_machine::model::{AxisKind, Machine};
 use postpro_predict::{BlockKind, Limit, Planner, Prediction, Timing, describe};
 
-use crate::emit::{ModeArg, write_atomically};
+use crate::emit::ModeArg;
 use crate::job::{Job, fail, prepare};
 use crate::plot;
 use crate::report;
@@ -68,9 +68,10 @@ pub(crate) struct PredictArgs {
     machine: MachineArgs,
     #[command(flatten)]
     ikt: IktArgs,
-    /// The output mode the prediction is for: `g1` (F is the feed of the linear axes),
-    /// `inverse-time`, `tcp` or `bspline` (F is the feed of the tool tip).
-    #[arg(long, value_enum, default_value_t = ModeArg::InverseTime)]
+    /// The output mode the prediction is for, as the main job's `--mode` (default the same, g1):
+    /// `g1` (F is the feed of the linear axes), `inverse-time`, `tcp` or `bspline` (F is the feed
+    /// of the tool tip).
+    #[arg(long, value_enum, default_value_t = ModeArg::G1)]
     mode: ModeArg,
     #[command(flatten)]
     prediction: PredictionArgs,
@@ -89,7 +90,7 @@ pub(crate) struct PredictArgs {
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
     /// Sampling period in ms (default: the CNC's interpolation cycle).
-    #[arg(long, value_name = "MS")]
+    #[arg(long, value_name = "MS", allow_negative_numbers = true)]
     period: Option<f64>,
     /// Print the time the prediction took and its throughput (blocks and samples per second)
     /// to standard error.
@@ -192,36 +193,54 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         );
     }
     let machine = &job.machine;
+    // Every export is made first, then all are written together: a failure leaves none.
+    let mut exports: Vec<(PathBuf, String)> = Vec::new();
     if let Some(path) = &args.csv {
-        let blocks_path = path.with_extension("blocks.csv");
-        for (target, text) in
-            [(path, samples_csv(&prediction, machine)), (&blocks_path, blocks_csv(&prediction, machine, &job))]
-        {
-            if let Err(code) = write_text(target, &text) {
-                return code;
-            }
-        }
+        exports.push((path.clone(), samples_csv(&prediction, machine)));
+        exports.push((path.with_extension("blocks.csv"), blocks_csv(&prediction, machine, &job)));
     }
     if let Some(path) = &args.json {
-        let text = json(&prediction, machine, &job, planner);
-        if let Err(code) = write_text(path, &text) {
-            return code;
-        }
+        exports.push((path.clone(), json(&prediction, machine, &job, planner)));
     }
     if let Some(path) = &args.plot {
-        let report = plot_report(&prediction, machine, &job);
-        if let Err(e) = plot::write_svg(&report, path) {
-            return fail(&format!("error: cannot draw {}: {e}\n", path.display()), 1);
+        match plot::render(&plot_report(&prediction, machine, &job)) {
+            Ok(svg) => exports.push((path.clone(), svg)),
+            Err(e) => return fail(&format!("error: cannot draw {}: {e}\n", path.display()), 1),
         }
+    }
+    if let Err(message) = write_all(&exports) {
+        return fail(&message, 1);
     }
     report::print_stdout(&table(&prediction, machine, &job, args, planner))
 }
 
-fn write_text(path: &Path, text: &str) -> Result<(), ExitCode> {
-    write_atomically(path, |out| {
-        out.write_all(text.as_bytes()).map_err(|e| postpro_emit::EmitError::Io { message: e.to_string() })
-    })
-    .map_err(|e| fail(&format!("error: cannot write {}: {e}\n", path.display()), 1))
+/// Writes every `(path, text)`: each to a temporary file beside its target, then, once all are
+/// written, each renamed over its target. On an error no target is touched and the temporary
+/// files are removed.
+fn write_all(files: &[(PathBuf, String)]) -> Result<(), String> {
+    let mut staged: Vec<(PathBuf, &Path)> = Vec::new();
+    let remove = |staged: &[(PathBuf, &Path)]| {
+        for (temp, _) in staged {
+            let _ = std::fs::remove_file(temp);
+        }
+    };
+    for (path, text) in files {
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let name = path.file_name().map_or_else(|| "export".into(), |n| n.to_string_lossy().into_owned());
+        let temp = dir.join(format!(".{name}.postpro-{}.tmp", std::process::id()));
+        if let Err(e) = std::fs::write(&temp, text) {
+            remove(&staged);
+            return Err(format!("error: cannot write {}: {e}\n", path.display()));
+        }
+        staged.push((temp, path));
+    }
+    for (i, (temp, path)) in staged.iter().enumerate() {
+        if let Err(e) = std::fs::rename(temp, path) {
+            remove(&staged[i..]);
+            return Err(format!("error: cannot write {}: {e}\n", path.display()));
+        }
+    }
+    Ok(())
 }
 
 /// The CL line of a block (1-based).
@@ -231,7 +250,8 @@ fn line(job: &Job, step: usize) -> usize {
 
 /// An axis value in its NC unit (mm, degrees).
 fn nc(machine: &Machine, axis: usize, v: f64) -> f64 {
-    if machine.axes[axis].kind == AxisKind::Rotary { v.to_degrees() } else { v }
+    let v = if machine.axes[axis].kind == AxisKind::Rotary { v.to_degrees() } else { v };
+    if v == 0.0 { 0.0 } else { v }
 }
 
 fn kind_name(kind: BlockKind) -> &'static str {
@@ -371,7 +391,8 @@ fn samples_csv(prediction: &Prediction, machine: &Machine) -> String {
         );
         for column in [&s.position, &s.velocity, &s.acceleration, &s.jerk] {
             for i in 0..n {
-                let _ = write!(out, ",{:.6}", nc(machine, i, column[r * n + i]));
+                out.push(',');
+                postpro_emit::push_number(&mut out, nc(machine, i, column[r * n + i]), 6, false);
             }
         }
         out.push('\n');
@@ -454,6 +475,15 @@ fn json(prediction: &Prediction, machine: &Machine, job: &Job, planner: Planner)
 }
 
 fn plot_report(prediction: &Prediction, machine: &Machine, job: &Job) -> plot::Report {
+    let empty = postpro_predict::Samples::default();
+    let samples = prediction.samples.as_ref().unwrap_or(&empty);
+    let feed_only = |column: &Vec<f64>| -> Vec<f64> {
+        column
+            .iter()
+            .zip(&samples.block)
+            .map(|(v, b)| if prediction.blocks[*b as usize].kind == BlockKind::Rapid { f64::NAN } else { *v })
+            .collect()
+    };
     let names = limit_names(prediction);
     let empty = postpro_predict::Samples::default();
     let s = prediction.samples.as_ref().unwrap_or(&empty);
@@ -479,9 +509,10 @@ fn plot_report(prediction: &Prediction, machine: &Machine, job: &Job) -> plot::R
             t.threshold * 100.0
         ),
         path_mm: s.path.clone(),
-        programmed: s.programmed.clone(),
-        predicted: s.feed.clone(),
-        relative: Some(s.relative_feed.clone()),
+        // Rapids would squash the feeds to the bottom of the chart: left out of the feed panel.
+        programmed: feed_only(&s.programmed),
+        predicted: feed_only(&s.feed),
+        relative: Some(feed_only(&s.relative_feed)),
         limiter: s.limit.iter().map(|l| names.iter().position(|x| x == l).unwrap_or(0) as u16).collect(),
         limiter_names: names.iter().map(|l| describe(*l, machine)).collect(),
         axes,

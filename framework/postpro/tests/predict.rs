@@ -1,0 +1,744 @@
+//! Command-line tests of `postpro predict` and of the prediction in the main job, on the bundled
+//! hyperbolic paraboloid and the Mikron: the table (pinned), the exports (samples and per-block
+//! CSV, JSON, SVG) agreeing with it and with each other, the error cases (exit code and message
+//! pinned, no file written), and the slowdown comments and predicted cycle time of the NC program.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+const EXAMPLE: &str = "examples/cl/hypar-5axis.cl";
+/// The example's file name, as it is called inside a scratch folder.
+const CL: &str = "hypar-5axis.cl";
+const MACHINE: &str = "mikron";
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Runs `postpro` in `dir`, so that relative paths (and the messages naming them) read as a
+/// user types them.
+fn postpro(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_postpro")).args(args).current_dir(dir).output().expect("postpro runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).expect("stdout is UTF-8")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).expect("stderr is UTF-8")
+}
+
+/// A fresh folder with a copy of the example (kept after the test for a look after a failure).
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("predict").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("a scratch folder");
+    std::fs::copy(repo().join(EXAMPLE), dir.join(CL)).expect("a copy of the example");
+    dir
+}
+
+/// The names in `dir`, sorted.
+fn files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .expect("list")
+        .map(|e| e.expect("an entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+// ----- The table --------------------------------------------------------------------------------
+
+/// What the table of `postpro predict` says.
+struct Table {
+    /// The number of blocks of the header line.
+    blocks: usize,
+    cycle_time: f64,
+    programmed_time: f64,
+    lost: f64,
+}
+
+/// The number after `label` on the line that starts with it, without its unit.
+fn figure(text: &str, label: &str) -> f64 {
+    let line = text.lines().find(|l| l.starts_with(label)).unwrap_or_else(|| panic!("no `{label}` in:\n{text}"));
+    let value = line[label.len()..].split_whitespace().next().expect("a value");
+    value.parse().unwrap_or_else(|_| panic!("`{line}`"))
+}
+
+fn table(text: &str) -> Table {
+    let header = text.lines().next().expect("a header line");
+    let blocks = header
+        .strip_suffix(" blocks)")
+        .and_then(|h| h.rsplit(", ").next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("the header line ends with the number of blocks: `{header}`"));
+    Table {
+        blocks,
+        cycle_time: figure(text, "predicted cycle time"),
+        programmed_time: figure(text, "at the programmed feed"),
+        lost: figure(text, "lost to slowdowns"),
+    }
+}
+
+/// The block rows of a table: the lines under the column header.
+fn rows(text: &str) -> Vec<&str> {
+    text.lines().skip_while(|l| !l.starts_with("  block    line  kind")).skip(1).take_while(|l| !l.is_empty()).collect()
+}
+
+/// The columns of a block row: block, line, kind, length, F, min, mean, time, limit (which may
+/// hold a space).
+fn columns(row: &str) -> Vec<String> {
+    let mut fields: Vec<String> = row.split_whitespace().map(str::to_string).collect();
+    let limit = fields.split_off(8.min(fields.len())).join(" ");
+    fields.push(limit);
+    assert_eq!(fields.len(), 9, "a block row has 9 columns: `{row}`");
+    fields
+}
+
+fn number(field: &str) -> f64 {
+    field.parse().unwrap_or_else(|_| panic!("`{field}` is a number"))
+}
+
+#[test]
+fn predict_prints_the_totals_and_the_worst_slowdowns() {
+    let o = postpro(&["predict", EXAMPLE, "--machine", MACHINE], &repo());
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    assert!(stderr(&o).is_empty(), "nothing on stderr: {}", stderr(&o));
+    let out = stdout(&o);
+    insta::assert_snapshot!("hypar_mikron_table", out);
+
+    let t = table(&out);
+    assert!(
+        out.starts_with(&format!("{EXAMPLE} on mikron-ucp710 (inverse-time planner, g1 mode, ")),
+        "{out}"
+    );
+    assert!(
+        t.cycle_time >= t.programmed_time,
+        "the machine never runs faster than programmed: {} s predicted, {} s programmed",
+        t.cycle_time,
+        t.programmed_time
+    );
+    assert!((t.cycle_time - t.programmed_time - t.lost).abs() <= 0.011, "lost = predicted - programmed:\n{out}");
+
+    // The worst slowdowns are below the threshold, at most 10, and the count says how many.
+    let summary = out.lines().find(|l| l.contains(" slowdowns below 80% of F; the worst ")).expect("a slowdown line");
+    let count: usize = number(summary.split_whitespace().next().expect("a count")) as usize;
+    let worst = rows(&out);
+    assert_eq!(worst.len(), count.min(10), "{out}");
+    assert!(!worst.is_empty(), "the hypar slows down on the Mikron:\n{out}");
+    let mut ratios = Vec::new();
+    for row in &worst {
+        let c = columns(row);
+        assert_eq!(c[2], "feed", "a slowdown is a feed block: `{row}`");
+        let (programmed, lowest) = (number(&c[4]), number(&c[5]));
+        // Printed to the mm/min: half a unit of rounding.
+        assert!(lowest - 0.5 < 0.8 * programmed, "below 80% of F: `{row}`");
+        // The range of the ratio, with the printed figures' rounding.
+        ratios.push(((lowest - 0.5) / programmed, (lowest + 0.5) / programmed));
+        assert_ne!(c[8], "exact stop", "a stop is no slowdown: `{row}`");
+    }
+    assert!(ratios.windows(2).all(|w| w[0].0 <= w[1].1), "the worst first:\n{out}");
+
+    // `--blocks`: the same totals, then every block; the worst rows are among them, unchanged.
+    let o = postpro(&["predict", EXAMPLE, "--machine", MACHINE, "--blocks"], &repo());
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let all = stdout(&o);
+    let head = |text: &str| -> String {
+        let lines = text.lines().take_while(|l| !l.starts_with("  block    line") && !l.contains("slowdowns below"));
+        lines.collect::<Vec<_>>().join("\n").trim_end().to_string()
+    };
+    assert_eq!(head(&all), head(&out), "--blocks prints the same totals");
+    let every = rows(&all);
+    assert_eq!(every.len(), t.blocks, "one row per block of the header line");
+    for (i, row) in every.iter().enumerate() {
+        let c = columns(row);
+        assert_eq!(c[0], (i + 1).to_string(), "blocks numbered in order: `{row}`");
+        assert!(["feed", "rapid", "reorientation"].contains(&c[2].as_str()), "`{row}`");
+        assert!(number(&c[7]) >= 0.0, "`{row}`");
+    }
+    let lines: Vec<usize> = every.iter().map(|r| number(&columns(r)[1]) as usize).collect();
+    assert!(lines.windows(2).all(|w| w[0] <= w[1]), "blocks follow the CL file");
+    for row in &worst {
+        assert!(every.contains(row), "`{row}` is listed by --blocks as it is among the worst");
+    }
+}
+
+#[test]
+fn timing_goes_to_stderr_and_leaves_the_table_alone() {
+    let plain = postpro(&["predict", EXAMPLE, "--machine", MACHINE], &repo());
+    let timed = postpro(&["predict", EXAMPLE, "--machine", MACHINE, "--timing"], &repo());
+    assert_eq!(timed.status.code(), Some(0), "stderr:\n{}", stderr(&timed));
+    assert_eq!(stdout(&timed), stdout(&plain));
+    let err = stderr(&timed);
+    assert!(err.starts_with(&format!("predicted {} blocks, ", table(&stdout(&plain)).blocks)), "{err}");
+    assert!(err.contains("M samples/s"), "{err}");
+}
+
+#[test]
+fn help_lists_the_prediction_options() {
+    let o = postpro(&["predict", "--help"], &repo());
+    assert_eq!(o.status.code(), Some(0));
+    for flag in [
+        "--machine",
+        "--mode",
+        "--planner",
+        "--threshold",
+        "--blocks",
+        "--csv",
+        "--json",
+        "--plot",
+        "--period",
+        "--timing",
+    ] {
+        assert!(stdout(&o).contains(flag), "{flag} in:\n{}", stdout(&o));
+    }
+    let o = postpro(&["--help"], &repo());
+    for flag in ["--no-predict", "--planner", "--threshold"] {
+        assert!(stdout(&o).contains(flag), "{flag} in:\n{}", stdout(&o));
+    }
+}
+
+// ----- The exports --------------------------------------------------------------------------------
+
+/// One run of `predict --csv --json --plot` on the example, shared by the export tests.
+struct Exports {
+    dir: PathBuf,
+    /// Its table.
+    text: String,
+    table: Table,
+}
+
+fn exports() -> &'static Exports {
+    static RUN: OnceLock<Exports> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let dir = scratch("exports");
+        let args = [
+            "predict",
+            CL,
+            "--machine",
+            MACHINE,
+            "--csv",
+            "samples.csv",
+            "--json",
+            "prediction.json",
+            "--plot",
+            "feed.svg",
+        ];
+        let o = postpro(&args, &dir);
+        assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+        assert!(stderr(&o).is_empty(), "{}", stderr(&o));
+        let text = stdout(&o);
+        Exports { table: table(&text), text, dir }
+    })
+}
+
+fn read(dir: &Path, name: &str) -> String {
+    std::fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// A CSV file as its header and rows (no field holds a comma).
+fn csv(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut lines = text.lines();
+    let header = lines.next().expect("a header").split(',').map(str::to_string).collect::<Vec<_>>();
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(str::to_string).collect()).collect();
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row.len(), header.len(), "row {} has as many fields as the header", i + 1);
+    }
+    (header, rows)
+}
+
+/// `postpro solve --csv` of the example: the line and the axis values of every position.
+fn solved() -> Vec<(usize, Vec<String>)> {
+    let o = postpro(&["solve", EXAMPLE, "--machine", MACHINE, "--csv"], &repo());
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let (header, rows) = csv(&stdout(&o));
+    assert_eq!(header, ["step", "line", "kind", "rapid", "X_mm", "Y_mm", "Z_mm", "A_deg", "C_deg"]);
+    rows.into_iter().map(|r| (r[1].parse().expect("a line"), r[4..].to_vec())).collect()
+}
+
+/// The axis values of a sample equal the solved ones, to their written precision.
+fn at_position(sample: &[String], solved: &[String], what: &str) {
+    for (s, t) in sample.iter().zip(solved) {
+        let decimals = t.split_once('.').map_or(0, |(_, f)| f.len() as i32);
+        let tolerance = 0.5 * 10f64.powi(-decimals) + 1e-9;
+        assert!((number(s) - number(t)).abs() <= tolerance, "{what}: sample {sample:?}, solved {solved:?}");
+    }
+}
+
+#[test]
+fn csv_exports_samples_and_blocks_that_add_up_to_the_cycle_time() {
+    let e = exports();
+    let names = files(&e.dir);
+    for name in ["samples.csv", "samples.blocks.csv"] {
+        assert!(names.contains(&name.to_string()), "{name} written: {names:?}");
+    }
+    assert!(!names.iter().any(|n| n.contains(".tmp")), "no temporary file left: {names:?}");
+
+    // The samples: every axis's position, velocity, acceleration and jerk, with its unit.
+    let (header, samples) = csv(&read(&e.dir, "samples.csv"));
+    let mut expected: Vec<String> =
+        ["time_s", "path_mm", "block", "programmed_mm_min", "feed_mm_min", "relative_feed_mm_min", "limit"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+    for (what, suffix) in [("pos", ""), ("vel", "_per_s"), ("acc", "_per_s2"), ("jerk", "_per_s3")] {
+        for (axis, unit) in [("X", "mm"), ("Y", "mm"), ("Z", "mm"), ("A", "deg"), ("C", "deg")] {
+            expected.push(format!("{axis}_{what}_{unit}{suffix}"));
+        }
+    }
+    assert_eq!(header, expected);
+    assert!(samples.len() > 1000, "{} samples", samples.len());
+    let time: Vec<f64> = samples.iter().map(|r| number(&r[0])).collect();
+    assert_eq!(time[0], 0.0);
+    if let Some(w) = time.windows(2).find(|w| w[1] <= w[0]) {
+        panic!("the time increases strictly: {} then {}", w[0], w[1]);
+    }
+    let last = time[time.len() - 1];
+    assert!(
+        (last - e.table.cycle_time).abs() <= 0.005,
+        "the last sample ({last} s) ends the cycle ({} s)",
+        e.table.cycle_time
+    );
+    let path: Vec<f64> = samples.iter().map(|r| number(&r[1])).collect();
+    assert!(path.windows(2).all(|w| w[0] <= w[1]), "the path length never decreases");
+    let block: Vec<usize> = samples.iter().map(|r| number(&r[2]) as usize).collect();
+    assert!(block.windows(2).all(|w| w[0] <= w[1]), "the blocks follow each other");
+    assert_eq!((block[0], block[block.len() - 1]), (1, e.table.blocks));
+    for r in &samples {
+        assert!(r[3..6].iter().all(|v| number(v) >= 0.0), "feeds are not negative: {r:?}");
+        assert!(r[7..].iter().all(|v| number(v).is_finite()), "{r:?}");
+    }
+    // The motion starts and ends where the solved program does.
+    let solved = solved();
+    at_position(&samples[0][7..12], &solved[0].1, "the first sample");
+    at_position(&samples[samples.len() - 1][7..12], &solved[solved.len() - 1].1, "the last sample");
+
+    // The blocks: one row each, on the CL line of its end position, their times adding up to
+    // the cycle time (the hypar has no dwell).
+    let (header, blocks) = csv(&read(&e.dir, "samples.blocks.csv"));
+    assert_eq!(
+        header,
+        [
+            "block",
+            "line",
+            "kind",
+            "length_mm",
+            "programmed_mm_min",
+            "min_feed_mm_min",
+            "mean_feed_mm_min",
+            "time_s",
+            "limit"
+        ]
+    );
+    assert_eq!(blocks.len(), e.table.blocks, "one row per block");
+    assert_eq!(blocks.len() + 1, solved.len(), "a block per solved position after the first");
+    for (i, (row, (line, _))) in blocks.iter().zip(&solved[1..]).enumerate() {
+        assert_eq!(row[0], (i + 1).to_string());
+        assert_eq!(number(&row[1]) as usize, *line, "block {} ends on the CL line of its position", i + 1);
+    }
+    let sum: f64 = blocks.iter().map(|r| number(&r[7])).sum();
+    let json: serde_json::Value = serde_json::from_str(&read(&e.dir, "prediction.json")).expect("JSON");
+    let cycle = json["totals"]["cycle_time_s"].as_f64().expect("cycle_time_s");
+    assert!((sum - cycle).abs() <= 1e-3, "the block times add up to {sum} s, the cycle time is {cycle} s");
+    assert!((sum - e.table.cycle_time).abs() <= 0.005 + 1e-3, "{sum} s against the table's {} s", e.table.cycle_time);
+    assert!((last - cycle).abs() <= 1e-5, "the last sample at {last} s, the cycle time {cycle} s");
+
+    // Asking for the exports does not change the prediction.
+    let plain = postpro(&["predict", CL, "--machine", MACHINE], &e.dir);
+    assert_eq!(stdout(&plain), e.text);
+}
+
+#[test]
+fn json_has_the_totals_blocks_and_samples_of_the_table() {
+    let e = exports();
+    let json: serde_json::Value = serde_json::from_str(&read(&e.dir, "prediction.json")).expect("the file is JSON");
+    let keys =
+        |v: &serde_json::Value| -> BTreeSet<String> { v.as_object().expect("an object").keys().cloned().collect() };
+    let set = |names: &[&str]| -> BTreeSet<String> { names.iter().map(|s| s.to_string()).collect() };
+    assert_eq!(keys(&json), set(&["file", "machine", "planner", "totals", "blocks", "samples"]));
+    assert_eq!(
+        (json["file"].as_str(), json["machine"].as_str(), json["planner"].as_str()),
+        (Some(CL), Some("mikron-ucp710"), Some("inverse-time"))
+    );
+    let totals = &json["totals"];
+    let cycle = totals["cycle_time_s"].as_f64().expect("cycle_time_s");
+    assert!((cycle - e.table.cycle_time).abs() <= 0.005, "{cycle} s, the table says {} s", e.table.cycle_time);
+    let programmed = totals["programmed_time_s"].as_f64().expect("programmed_time_s");
+    assert!((programmed - e.table.programmed_time).abs() <= 0.005);
+    let lost = totals["time_lost_s"].as_f64().expect("time_lost_s");
+    assert!((cycle - programmed - lost).abs() <= 1e-9);
+    assert_eq!(totals["threshold"].as_f64(), Some(0.8));
+    let share = totals["share_below"].as_f64().expect("share_below");
+    let (below, length) =
+        (totals["length_below_mm"].as_f64().expect("mm"), totals["feed_length_mm"].as_f64().expect("mm"));
+    assert!((0.0..=1.0).contains(&share) && (share - below / length).abs() <= 1e-12, "{totals}");
+
+    // The blocks are those of the CSV.
+    let (_, rows) = csv(&read(&e.dir, "samples.blocks.csv"));
+    let blocks = json["blocks"].as_array().expect("blocks");
+    assert_eq!(blocks.len(), rows.len(), "as many blocks as in the CSV");
+    for (b, row) in blocks.iter().zip(&rows) {
+        assert_eq!(b["block"].to_string(), row[0]);
+        assert_eq!(b["line"].to_string(), row[1]);
+        assert_eq!(b["kind"].as_str(), Some(row[2].as_str()));
+        assert_eq!(b["limit"].as_str(), Some(row[8].as_str()));
+        let time = b["time_s"].as_f64().expect("time_s");
+        assert!((time - number(&row[7])).abs() <= 5e-7, "block {}: {time} s, {} in the CSV", row[0], row[7]);
+    }
+
+    // The samples: every column as long as the others, as many as the CSV's rows.
+    let samples = &json["samples"];
+    let (_, csv_samples) = csv(&read(&e.dir, "samples.csv"));
+    let mut lengths = Vec::new();
+    for column in ["time_s", "path_mm", "block", "programmed_mm_min", "feed_mm_min", "relative_feed_mm_min", "limit"] {
+        lengths.push((column.to_string(), samples[column].as_array().map(Vec::len)));
+    }
+    let axes = samples["axes"].as_array().expect("axes");
+    let letters: Vec<(&str, &str)> =
+        axes.iter().map(|a| (a["letter"].as_str().expect("letter"), a["unit"].as_str().expect("unit"))).collect();
+    assert_eq!(letters, [("X", "mm"), ("Y", "mm"), ("Z", "mm"), ("A", "deg"), ("C", "deg")]);
+    for a in axes {
+        for column in ["position", "velocity", "acceleration", "jerk"] {
+            lengths.push((format!("{} {column}", a["letter"]), a[column].as_array().map(Vec::len)));
+        }
+    }
+    for (column, length) in &lengths {
+        assert_eq!(*length, Some(csv_samples.len()), "samples.{column}");
+    }
+    let last = samples["time_s"].as_array().and_then(|t| t.last()).and_then(serde_json::Value::as_f64).expect("a time");
+    assert!((last - cycle).abs() <= 1e-9, "the last sample at {last} s ends the cycle ({cycle} s)");
+}
+
+/// The legend's limiter entries of the SVG: each name with the colour of the line sample drawn
+/// just before it, up to the first text without one.
+fn limiter_legend(svg: &str) -> Vec<(String, String)> {
+    let start = svg.find(">\nPredicted, limited by\n<").expect("the limiter legend");
+    let mut entries = Vec::new();
+    let mut colour = None;
+    for element in svg[start..].split('<').skip(1) {
+        if element.starts_with("polyline") || element.starts_with("path") {
+            colour = element.split("stroke=\"").nth(1).and_then(|s| s.split('"').next()).map(str::to_string);
+        } else if let Some(text) = element.strip_prefix("text") {
+            let Some(c) = colour.take() else { break };
+            entries.push((text.split_once('>').map_or("", |(_, t)| t.trim()).to_string(), c));
+        } else if !element.starts_with('/') {
+            colour = None;
+        }
+    }
+    entries
+}
+
+#[test]
+fn the_plot_is_a_small_svg_with_the_title_and_the_velocities() {
+    let e = exports();
+    let size = std::fs::metadata(e.dir.join("feed.svg")).expect("feed.svg written").len();
+    assert!(size < 2_000_000, "{size} bytes");
+    let svg = read(&e.dir, "feed.svg");
+    assert!(svg.starts_with("<svg") || svg.starts_with("<?xml"), "{}", &svg[..100.min(svg.len())]);
+    assert!(svg.trim_end().ends_with("</svg>"), "the SVG is whole");
+    assert!(svg.contains(&format!("{CL} on mikron-ucp710")), "the title");
+    assert!(svg.contains(&format!("predicted cycle time {:.2} s", e.table.cycle_time)), "the table's cycle time");
+    assert!(svg.contains("velocity"));
+    // What holds the feed back, each in a colour of its own: the legend reads one way.
+    let legend = limiter_legend(&svg);
+    assert!(legend.len() >= 5, "{legend:?}");
+    for name in ["programmed", "corner", "X jerk", "Y jerk"] {
+        assert!(legend.iter().any(|(n, _)| n == name), "{name} in {legend:?}");
+    }
+    let colours: BTreeSet<&str> = legend.iter().map(|(_, c)| c.as_str()).collect();
+    assert_eq!(colours.len(), legend.len(), "one colour per limiter: {legend:?}");
+}
+
+// ----- Errors -----------------------------------------------------------------------------------------
+
+/// Runs `predict` in a scratch folder asking for every export, and gives the exit code and the
+/// standard error for a snapshot; checks that nothing is printed nor written.
+fn failing(name: &str, args: &[&str]) -> String {
+    let dir = scratch(name);
+    std::fs::copy(repo().join("tests/cl/err_goto_arity.cl"), dir.join("err_goto_arity.cl")).expect("a copy");
+    let before = files(&dir);
+    let mut all = vec!["predict"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--csv", "samples.csv", "--json", "prediction.json", "--plot", "feed.svg"]);
+    let o = postpro(&all, &dir);
+    assert!(stdout(&o).is_empty(), "postpro {all:?} prints no table:\n{}", stdout(&o));
+    assert_eq!(files(&dir), before, "postpro {all:?} writes nothing");
+    format!("exit code: {:?}\n{}", o.status.code(), stderr(&o))
+}
+
+#[test]
+fn an_unknown_machine_exits_2_with_the_nearest_names() {
+    let report = failing("unknown-machine", &[CL, "--machine", "mikorn"]);
+    assert!(report.starts_with("exit code: Some(2)\n"), "{report}");
+    insta::assert_snapshot!("unknown_machine", report);
+}
+
+#[test]
+fn a_cl_file_that_does_not_read_exits_1_with_its_line_and_column() {
+    let report = failing("syntax-error", &["err_goto_arity.cl", "--machine", MACHINE]);
+    assert!(report.starts_with("exit code: Some(1)\n"), "{report}");
+    assert!(report.contains("[err_goto_arity.cl:2:6]"), "{report}");
+    assert!(report.contains("nothing predicted"), "{report}");
+    insta::assert_snapshot!("syntax_error", report);
+}
+
+#[test]
+fn a_threshold_above_100_is_a_usage_error() {
+    let report = failing("threshold", &[CL, "--machine", MACHINE, "--threshold", "150"]);
+    assert!(report.starts_with("exit code: Some(2)\n"), "{report}");
+    insta::assert_snapshot!("threshold_150", report);
+    for bad in ["-5", "abc", "NaN"] {
+        let report = failing("threshold", &[CL, "--machine", MACHINE, &format!("--threshold={bad}")]);
+        assert!(report.starts_with("exit code: Some(2)\n"), "--threshold={bad}: {report}");
+    }
+}
+
+#[test]
+fn a_period_of_zero_is_a_usage_error() {
+    let report = failing("period", &[CL, "--machine", MACHINE, "--period", "0"]);
+    assert!(report.starts_with("exit code: Some(2)\n"), "{report}");
+    insta::assert_snapshot!("period_0", report);
+    for bad in ["-1", "NaN", "inf"] {
+        let report = failing("period", &[CL, "--machine", MACHINE, &format!("--period={bad}")]);
+        assert!(report.starts_with("exit code: Some(2)\n"), "--period={bad}: {report}");
+    }
+}
+
+/// The operating system's reason at the end of a message, for a snapshot that holds anywhere.
+fn without_os_reason(report: &str) -> String {
+    assert!(report.contains("No such file") || report.contains("cannot find"), "the OS reason is given: {report}");
+    report
+        .lines()
+        .map(|l| {
+            if l.starts_with("error: ") {
+                l.rsplit_once(": ").map_or(l.to_string(), |(m, _)| format!("{m}: <the OS's reason>"))
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn an_output_in_a_missing_folder_exits_1_without_a_partial_file() {
+    for (name, flag, file) in [
+        ("missing-csv", "--csv", "missing/samples.csv"),
+        ("missing-json", "--json", "missing/prediction.json"),
+        ("missing-plot", "--plot", "missing/feed.svg"),
+    ] {
+        let dir = scratch(name);
+        let o = postpro(&["predict", CL, "--machine", MACHINE, flag, file], &dir);
+        let report = format!("exit code: {:?}\n{}", o.status.code(), stderr(&o));
+        assert!(report.starts_with("exit code: Some(1)\n"), "{flag}: {report}");
+        assert!(report.contains(&format!("error: cannot write {file}: ")), "{flag} names the file: {report}");
+        assert!(!report.contains("program"), "{flag} writes no program: {report}");
+        assert_eq!(files(&dir), [CL], "{flag}: nothing written, no temporary file left");
+        assert!(stdout(&o).is_empty(), "{flag}: no table after an error");
+        if flag == "--csv" {
+            insta::assert_snapshot!("missing_folder_csv", without_os_reason(&report));
+        }
+    }
+}
+
+// ----- The main job -------------------------------------------------------------------------------------
+
+/// An NC program of the main job, in its parts.
+struct Program {
+    lines: Vec<String>,
+    /// The slowdown comments: (the motion block it stands before, counted from 0; its text).
+    slowdowns: Vec<(usize, String)>,
+}
+
+const PREDICTED: &str = "; predicted cycle time: ";
+const BELOW: &str = "; below ";
+const SLOWDOWN: &str = "; slowdown ";
+
+fn is_motion(line: &str) -> bool {
+    line.starts_with("G0 ") || line.starts_with("G1 ")
+}
+
+impl Program {
+    fn read(dir: &Path, name: &str) -> Program {
+        let lines: Vec<String> = read(dir, name).lines().map(str::to_string).collect();
+        let mut slowdowns = Vec::new();
+        let mut motion = 0;
+        for (i, line) in lines.iter().enumerate() {
+            if let Some(text) = line.strip_prefix(SLOWDOWN) {
+                let next = lines[i + 1..].iter().find(|l| !l.starts_with(SLOWDOWN)).map_or("", |l| l.as_str());
+                assert!(next.starts_with("G1 "), "`{line}` stands before a feed block, not `{next}`");
+                slowdowns.push((motion, format!("slowdown {text}")));
+            }
+            if is_motion(line) {
+                motion += 1;
+            }
+        }
+        Program { lines, slowdowns }
+    }
+
+    /// The header line that starts with `start`.
+    fn header(&self, start: &str) -> Option<&str> {
+        let first_motion = self.lines.iter().position(|l| is_motion(l)).unwrap_or(self.lines.len());
+        self.lines[..first_motion].iter().find(|l| l.starts_with(start)).map(String::as_str)
+    }
+
+    /// The program without what the prediction adds.
+    fn without_prediction(&self) -> Vec<&str> {
+        self.lines
+            .iter()
+            .map(String::as_str)
+            .filter(|l| !l.starts_with(SLOWDOWN) && !l.starts_with(PREDICTED) && !l.starts_with(BELOW))
+            .collect()
+    }
+
+    /// The motion blocks.
+    fn motion(&self) -> Vec<&str> {
+        self.lines.iter().map(String::as_str).filter(|l| is_motion(l)).collect()
+    }
+}
+
+/// A slowdown comment: `slowdown 45% of F over 3 blocks, C jerk`, as (percent, blocks, limit).
+fn slowdown(text: &str) -> (u32, usize, String) {
+    let rest = text.strip_prefix("slowdown ").expect("slowdown");
+    let (percent, rest) = rest.split_once("% of F").unwrap_or_else(|| panic!("`{text}`"));
+    let (over, limit) = rest.split_once(", ").unwrap_or_else(|| panic!("`{text}`"));
+    let blocks = match over.strip_prefix(" over ").and_then(|o| o.strip_suffix(" blocks")) {
+        Some(n) => {
+            let n: usize = n.parse().unwrap_or_else(|_| panic!("`{text}`"));
+            assert!(n >= 2, "one block is said without `over`: `{text}`");
+            n
+        }
+        None => {
+            assert!(over.is_empty(), "`{text}`");
+            1
+        }
+    };
+    (percent.parse().unwrap_or_else(|_| panic!("a whole percentage: `{text}`")), blocks, limit.to_string())
+}
+
+/// What the comments may name as the cause: never a stop or a rapid.
+fn known_limit(limit: &str) -> bool {
+    let axis = |kind: &str| ["X", "Y", "Z", "A", "C"].iter().any(|a| limit == format!("{a} {kind}"));
+    axis("velocity")
+        || axis("acceleration")
+        || axis("jerk")
+        || ["programmed", "corner", "look-ahead", "cycle time", "path acceleration", "path jerk", "G1 feed on the axes"].contains(&limit)
+}
+
+/// The main job on the example with `extra` options, written to `name`; its stderr.
+fn main_job(dir: &Path, name: &str, extra: &[&str]) -> (Program, String) {
+    let mut args = vec!["--machine", MACHINE, CL, "-o", name];
+    args.extend_from_slice(extra);
+    let o = postpro(&args, dir);
+    assert_eq!(o.status.code(), Some(0), "postpro {args:?}:\n{}", stderr(&o));
+    (Program::read(dir, name), stderr(&o))
+}
+
+/// The percentage of the feed path below the threshold, from the header.
+fn share_below(program: &Program) -> f64 {
+    let line = program.header(BELOW).expect("the share below the threshold");
+    let share = line.split(" on ").nth(1).and_then(|s| s.split(" percent").next()).unwrap_or("");
+    number(share)
+}
+
+/// The slowdown comments of `program` with their checks: below the threshold, a known cause,
+/// runs in order and apart, never across a rapid; the header's count is theirs.
+fn check_slowdowns(program: &Program, threshold: u32, label: &str) {
+    let motion = program.motion();
+    let mut end = 0;
+    for (at, text) in &program.slowdowns {
+        let (percent, blocks, limit) = slowdown(text);
+        assert!(percent < threshold, "{label}: `{text}` is below {threshold}%");
+        assert!(known_limit(&limit), "{label}: `{text}` names what holds the feed");
+        assert!(*at >= end, "{label}: `{text}` starts after the run before it");
+        end = at + blocks;
+        assert!(end <= motion.len(), "{label}: `{text}` ends within the program");
+        assert!(motion[*at..end].iter().all(|l| l.starts_with("G1 ")), "{label}: `{text}` runs over feed blocks only");
+    }
+    let marked = program.header(BELOW).expect("the header's slowdown line");
+    assert!(
+        marked.ends_with(&format!(", {} slowdowns marked", program.slowdowns.len())),
+        "{label}: `{marked}` counts the comments ({})",
+        program.slowdowns.len()
+    );
+}
+
+/// The main job with and without prediction, at several thresholds, for one planner.
+fn main_job_marks_the_slowdowns(planner: &str) {
+    let dir = scratch(&format!("main-{planner}"));
+    let planner_args = ["--planner", planner];
+
+    let (program, err) = main_job(&dir, "default.mpf", &planner_args);
+    let predicted = program.header(PREDICTED).expect("the predicted cycle time in the header");
+    assert!(predicted.ends_with(&format!(", planner: {planner}")), "{predicted}");
+    assert!(program.header(BELOW).is_some_and(|l| l.starts_with("; below 80.0 percent of the programmed feed")));
+    assert!(!program.slowdowns.is_empty(), "the hypar slows down on the Mikron ({planner})");
+    check_slowdowns(&program, 80, planner);
+
+    // The cycle time is the one `postpro predict` gives for the same mode (the main job's default
+    // is g1), and stderr says it too.
+    let o = postpro(&["predict", CL, "--machine", MACHINE, "--mode", "g1", "--planner", planner], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let t = table(&stdout(&o));
+    let cycle = format!("{:.1}", t.cycle_time);
+    assert!(
+        predicted.starts_with(&format!("{PREDICTED}{cycle} s, ")),
+        "`{predicted}`: predict says {} s",
+        t.cycle_time
+    );
+    let lost = format!("{:.1}", t.lost.max(0.0));
+    assert!(
+        predicted.contains(&format!(", lost to slowdowns: {lost} s, ")),
+        "`{predicted}`: predict says {} s",
+        t.lost
+    );
+    let below = figure(&stdout(&o), "feed path below 80%");
+    assert_eq!(format!("{:.1}", share_below(&program)), format!("{below:.1}"), "the share below 80% of predict");
+    let told = err.lines().find(|l| l.starts_with("predicted cycle time ")).expect("stderr tells the cycle time");
+    assert!(told.starts_with(&format!("predicted cycle time {cycle} s, ")), "{told}");
+    assert!(told.ends_with(&format!(", {} slowdowns marked", program.slowdowns.len())), "{told}");
+
+    // A higher threshold marks every block marked at 80% (runs may merge), a zero one none.
+    let (high, _) = main_job(&dir, "high.mpf", &[&planner_args[..], &["--threshold", "95"]].concat());
+    check_slowdowns(&high, 95, &format!("{planner} at 95%"));
+    for (at, text) in &program.slowdowns {
+        let (_, blocks, _) = slowdown(text);
+        let within = high.slowdowns.iter().any(|(start, run)| *start <= *at && at + blocks <= start + slowdown(run).1);
+        assert!(within, "{planner}: `{text}` at block {at} is within a slowdown at 95%: {:?}", high.slowdowns);
+    }
+    let (none, _) = main_job(&dir, "zero.mpf", &[&planner_args[..], &["--threshold", "0"]].concat());
+    assert!(none.slowdowns.is_empty(), "{planner}: nothing is below 0%: {:?}", none.slowdowns);
+    check_slowdowns(&none, 1, &format!("{planner} at 0%"));
+    assert!(
+        share_below(&none) == 0.0 && share_below(&program) <= share_below(&high),
+        "{planner}: the share below grows with the threshold"
+    );
+
+    // Without prediction: no comment, no predicted line, and otherwise the same program.
+    let (plain, err) = main_job(&dir, "plain.mpf", &[&planner_args[..], &["--no-predict"]].concat());
+    assert!(plain.slowdowns.is_empty());
+    assert!(plain.lines.iter().all(|l| !l.contains("slowdown") && !l.contains("predicted")), "{planner}: --no-predict");
+    assert!(!err.contains("predicted"), "{err}");
+    let expected = plain.without_prediction();
+    assert_eq!(expected.len(), plain.lines.len());
+    for (label, other) in [("80%", &program), ("95%", &high), ("0%", &none)] {
+        assert!(
+            other.without_prediction() == expected,
+            "{planner} at {label}: the same program as with --no-predict, comments aside"
+        );
+    }
+    assert!(files(&dir).iter().all(|n| !n.contains(".tmp")), "no temporary file left");
+}
+
+#[test]
+fn the_main_job_marks_the_slowdowns_of_the_inverse_time_planner() {
+    main_job_marks_the_slowdowns("inverse-time");
+}
+
+#[test]
+fn the_main_job_marks_the_slowdowns_of_the_vpop_planner() {
+    main_job_marks_the_slowdowns("vpop");
+}
