@@ -154,6 +154,47 @@ pub fn bundled_examples() -> Vec<(&'static str, String)> {
     vec![(HYPAR_FILE, hypar_example()), (MANTA_FILE, manta_example()), (BICUBIC_FILE, bicubic_example())]
 }
 
+/// `hypar-3plus2.cl`: a 3+2 program on the hyperbolic paraboloid of paper 004 §5.1, the
+/// surface read as the locus of the ball centre (a D16 ball-end mill, tip 8 mm below it, tool
+/// along +z), one cut along each ruling `y = x + c` (`c` from 96 down to −96 by 4: 49 paths,
+/// zig-zag), each with a rapid above its start, a plunge and a retract along the tool axis, at
+/// 30 m/min: the paper's test of `postpro orient`.
+#[must_use]
+pub fn hypar_3plus2_example() -> String {
+    let z = |x: f64, y: f64| (y * y - x * x) / 500.0 - 8.0;
+    let mut text = format!(
+        "$$ GENERATOR : postpro-examples (deterministic output)\n$$ {REGENERATE}\n\
+         $$ SURFACE   : hyperbolic paraboloid z = (y^2 - x^2)/500 (ball centres), x,y in [-50,50]\n\
+         $$ PATHS     : 3+2, one per ruling y = x + c, c = 96 .. -96 by 4, zig-zag, tool along +z\n\
+         TOOL PATH/HYPAR_RULINGS_3PLUS2,TOOL,BALL_D16\nTLDATA/MILL,16.0000,8.0000,75.0000,0.0000,0.0000\n\
+         LOAD/TOOL,1\nSPINDL/RPM,24000,CLW\nMULTAX\n"
+    );
+    for k in 0..49 {
+        let c = 96.0 - 4.0 * f64::from(k);
+        let (x0, x1) = (f64::max(-50.0, -50.0 - c), f64::min(50.0, 50.0 - c));
+        let (a, b) = if k % 2 == 0 { (x0, x1) } else { (x1, x0) };
+        let (p, q) = ([a, a + c, z(a, a + c)], [b, b + c, z(b, b + c)]);
+        let goto = |p: [f64; 3], dz: f64| {
+            format!("GOTO/{:.4},{:.4},{:.4},0.0000000,0.0000000,1.0000000\n", p[0], p[1], p[2] + dz)
+        };
+        text += "RAPID\n";
+        text += &goto(p, 20.0);
+        text += "FEDRAT/MMPM,3000.0000\n";
+        text += &goto(p, 0.0);
+        text += "FEDRAT/MMPM,30000.0000\n";
+        text += &goto(q, 0.0);
+        text += "FEDRAT/MMPM,3000.0000\n";
+        text += &goto(q, 20.0);
+    }
+    text + "END-OF-PATH\nFINI\n"
+}
+
+/// Examples stored beside the bundled ones, for one command each (`hypar-3plus2.cl`: `orient`).
+#[must_use]
+pub fn extra_examples() -> Vec<(&'static str, String)> {
+    vec![("hypar-3plus2.cl", hypar_3plus2_example())]
+}
+
 /// A GOTO-dominated 5-axis NX CLSF text of about `target_bytes` bytes (see
 /// [`write_big_goto_file`]).
 #[must_use]

@@ -69,7 +69,9 @@ fn run(command: Command) -> Result<(), String> {
         Command::Write { dir } => {
             let dir = dir.unwrap_or_else(|| PathBuf::from(DEFAULT_DIR));
             fs::create_dir_all(&dir).map_err(|e| format!("cannot create directory {}: {e}", dir.display()))?;
-            for (name, text) in postpro_examples::bundled_examples() {
+            for (name, text) in
+                postpro_examples::bundled_examples().into_iter().chain(postpro_examples::extra_examples())
+            {
                 let path = dir.join(name);
                 write_atomically(&path, |w| w.write_all(text.as_bytes()))
                     .map_err(|e| format!("cannot write {}: {e}", path.display()))?;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 fn bundled_examples_are_up_to_date() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl");
     let mut stale = Vec::new();
-    for (name, expected) in postpro_examples::bundled_examples() {
+    for (name, expected) in postpro_examples::bundled_examples().into_iter().chain(postpro_examples::extra_examples()) {
         let path = dir.join(name);
         match std::fs::read(&path) {
             Ok(actual) if actual == expected.as_bytes() => {}

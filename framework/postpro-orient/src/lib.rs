@@ -22,6 +22,8 @@
 //! - [`paths`]: the paths of a CL program (runs of feed moves between rapids, plunges and
 //!   retracts) and their length-weighted feed direction, sign-free (the principal axis of
 //!   `Σ Lᵢ dᵢ dᵢᵀ`), per path and for the whole part (paper 004 eqs. 23–24).
+//! - [`setup`]: a chosen set-up applied to the CL program (the tool axis replaced, the ball
+//!   centre kept).
 //!
 //! Units are the machine model's: millimetres, radians, seconds (norms in mm/s, mm/s², mm/s³).
 //!
@@ -44,10 +46,12 @@
 pub mod candidates;
 pub mod paths;
 pub mod polytope;
+pub mod setup;
 
 pub use candidates::{Candidate, Options, candidates};
 pub use paths::{PartDirection, Path, SplitOptions, part_direction, split};
 pub use polytope::{Bounds, JointBoxes, JointMap, Level, Polytope, Vertex, bounds};
+pub use setup::{Applied, Setup, apply};
 
 /// Why an orientation cannot be computed. Unreachable directions are not errors: they give no
 /// candidate.

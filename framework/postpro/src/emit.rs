@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use postpro_emit::{EmitError, Mode, Options, builtin_template, dialect, write_program};
+use postpro_emit::{Dialect, EmitError, Mode, Options, builtin_template, dialect, write_program};
 
 use crate::job::{fail, prepare};
 use crate::predict::{self, PredictionArgs};
@@ -143,25 +143,60 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         Ok(job) => job,
         Err(code) => return code,
     };
+    let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
+    let writing = Writing {
+        mode,
+        dialect,
+        template: &template,
+        output: &output,
+        program_name,
+        block_numbers: args.block_numbers,
+        prediction: (!args.no_predict).then_some(&args.prediction),
+    };
+    write_job(&job, &writing, &stage)
+}
+
+/// How a solved job is written.
+pub(crate) struct Writing<'a> {
+    /// Output mode.
+    pub(crate) mode: Mode,
+    /// Controller dialect.
+    pub(crate) dialect: &'a Dialect,
+    /// The template's name and text.
+    pub(crate) template: &'a (String, String),
+    /// Where (`-` for standard output).
+    pub(crate) output: &'a Path,
+    /// The program's name.
+    pub(crate) program_name: String,
+    /// Number the blocks.
+    pub(crate) block_numbers: bool,
+    /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
+    pub(crate) prediction: Option<&'a PredictionArgs>,
+}
+
+/// Predicts (unless told not to) and writes the program of a solved job, atomically; prints
+/// what it wrote. `stage` is told what is being done (`""` when done).
+pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn(&str)) -> ExitCode {
+    let (mode, dialect, template, output) = (how.mode, how.dialect, how.template, how.output);
     let kin = job.solver.kinematics();
     let (path, solved, machine, source) = (&job.path, &job.solved, &job.machine, &job.source);
-    let (prediction, annotations) = if args.no_predict {
-        (None, Vec::new())
-    } else {
-        stage("predicting the feed");
-        let predicted = predict::run(&job, mode, &args.prediction, false);
-        let annotations = predict::annotations(&predicted, machine, args.prediction.threshold());
-        let summary = predict::header(&predicted, &args.prediction, mode, annotations.len());
-        (Some(summary), annotations)
+    let (prediction, annotations) = match how.prediction {
+        None => (None, Vec::new()),
+        Some(args) => {
+            stage("predicting the feed");
+            let predicted = predict::run(job, mode, args, false);
+            let annotations = predict::annotations(&predicted, machine, args.threshold());
+            let summary = predict::header(&predicted, args, mode, annotations.len());
+            (Some(summary), annotations)
+        }
     };
     stage("writing the program");
-    let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
     let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
     let options = Options {
         mode,
-        program_name,
+        program_name: how.program_name.clone(),
         source_name: source.name().to_string(),
-        block_numbers: args.block_numbers,
+        block_numbers: how.block_numbers,
         prediction,
         annotations,
     };
@@ -172,7 +207,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         let mut out = std::io::BufWriter::new(stdout.lock());
         write(&mut out).and_then(|()| out.flush().map_err(|e| EmitError::Io { message: e.to_string() }))
     } else {
-        write_atomically(&output, write)
+        write_atomically(output, write)
     };
     stage("");
     if let Err(e) = written {

@@ -1,5 +1,6 @@
 //! `postpro`: the command line. `postpro --machine NAME FILE.cl` writes the NC program (the
-//! main job, `emit`); subcommands check CL files, list machines, solve the kinematics and predict the feed.
+//! main job, `emit`); subcommands check CL files, list machines, solve the kinematics, predict the feed and
+//! orient 3+2 set-ups.
 //!
 //! Exit codes: 0 when the input reads, 1 for input errors (a CL file or machine definition that
 //! does not read, a missing file), 2 for usage errors (clap's own code).
@@ -8,6 +9,7 @@ mod check;
 mod emit;
 mod job;
 mod machines;
+mod orient;
 mod plot;
 mod predict;
 mod report;
@@ -50,6 +52,10 @@ enum Command {
     /// holds it back and the time; the cycle time and the time lost to slowdowns; samples as
     /// CSV/JSON and an SVG report.
     Predict(predict::PredictArgs),
+    /// Find the 3+2 set-up that makes the machine fastest (paper 004): per path and for the
+    /// whole part, the rotary angles that point the feed at a jerk-polytope vertex, the reach
+    /// there, and the predicted cycle time against the original; `--apply OUT` writes it.
+    Orient(orient::OrientArgs),
 }
 
 fn main() -> ExitCode {
@@ -67,5 +73,6 @@ fn main() -> ExitCode {
         Command::Machines(args) => machines::run(&args),
         Command::Solve(args) => solve::run(&args),
         Command::Predict(args) => predict::main(&args),
+        Command::Orient(args) => orient::run(&args),
     }
 }

@@ -104,11 +104,42 @@ pub(crate) fn run(job: &Job, mode: Mode, args: &PredictionArgs, samples: bool) -
 }
 
 fn run_with(job: &Job, mode: Mode, planner: Planner, threshold: f64, samples: bool, period: Option<f64>) -> Prediction {
+    let options = options(mode, planner, threshold, samples, period);
+    predict_solved(&job.path, &job.solved, job.solver.kinematics(), mode, &options)
+}
+
+fn options(
+    mode: Mode,
+    planner: Planner,
+    threshold: f64,
+    samples: bool,
+    period: Option<f64>,
+) -> postpro_predict::Options {
+    postpro_predict::Options { planner, threshold, samples, period, splines: mode == Mode::Bspline }
+}
+
+fn predict_solved(
+    path: &postpro_cl::ToolPath,
+    solved: &postpro_kin::Solved,
+    kin: &dyn postpro_kin::Kinematics,
+    mode: Mode,
+    options: &postpro_predict::Options,
+) -> Prediction {
     let timing = if mode == Mode::G1 { Timing::AxisFeed } else { Timing::TipFeed };
-    let blocks = postpro_predict::blocks(&job.path, &job.solved, &job.machine, timing);
-    let splines = mode == Mode::Bspline;
-    let options = postpro_predict::Options { planner, threshold, samples, period, splines };
-    postpro_predict::predict(&blocks, job.solver.kinematics(), &options)
+    let blocks = postpro_predict::blocks(path, solved, kin.machine(), timing);
+    postpro_predict::predict(&blocks, kin, options)
+}
+
+/// The prediction of another solved tool path of the same machine (a re-oriented program).
+pub(crate) fn run_solved(
+    path: &postpro_cl::ToolPath,
+    solved: &postpro_kin::Solved,
+    kin: &dyn postpro_kin::Kinematics,
+    mode: Mode,
+    args: &PredictionArgs,
+) -> Prediction {
+    let options = options(mode, args.planner(), args.threshold(), false, None);
+    predict_solved(path, solved, kin, mode, &options)
 }
 
 /// The slowdown comments for the NC program: one per run of blocks below the threshold.

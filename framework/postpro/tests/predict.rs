@@ -111,10 +111,7 @@ fn predict_prints_the_totals_and_the_worst_slowdowns() {
     insta::assert_snapshot!("hypar_mikron_table", out);
 
     let t = table(&out);
-    assert!(
-        out.starts_with(&format!("{EXAMPLE} on mikron-ucp710 (inverse-time planner, g1 mode, ")),
-        "{out}"
-    );
+    assert!(out.starts_with(&format!("{EXAMPLE} on mikron-ucp710 (inverse-time planner, g1 mode, ")), "{out}");
     assert!(
         t.cycle_time >= t.programmed_time,
         "the machine never runs faster than programmed: {} s predicted, {} s programmed",
@@ -625,7 +622,8 @@ fn known_limit(limit: &str) -> bool {
     axis("velocity")
         || axis("acceleration")
         || axis("jerk")
-        || ["programmed", "corner", "look-ahead", "cycle time", "path acceleration", "path jerk", "G1 feed on the axes"].contains(&limit)
+        || ["programmed", "corner", "look-ahead", "cycle time", "path acceleration", "path jerk", "G1 feed on the axes"]
+            .contains(&limit)
 }
 
 /// The main job on the example with `extra` options, written to `name`; its stderr.
