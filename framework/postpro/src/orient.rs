@@ -88,6 +88,14 @@ struct PathReport {
 /// A program variant's predicted cycle time, or why there is none.
 type Cycle = Result<f64, String>;
 
+/// The program in one choice of set-ups: re-oriented, solved, predicted.
+struct Variant {
+    path: ToolPath,
+    solved: Solved,
+    cycle: f64,
+    applied: postpro_orient::Applied,
+}
+
 pub(crate) fn run(args: &OrientArgs) -> ExitCode {
     if !(0.0..=180.0).contains(&args.cone) {
         return fail(&format!("error: --cone must be between 0 and 180 degrees, found {}\n", args.cone), 2);
@@ -164,19 +172,19 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             axis: (r.axis_spread <= FIVE_AXIS_DEG).then(|| r.best.as_ref().map_or(r.reference, |b| b.tool_axis)),
         })
         .collect();
-    let variant = |setups: &[Setup]| -> Result<(ToolPath, Solved, f64, postpro_orient::Applied), String> {
+    let variant = |setups: &[Setup]| -> Result<Variant, String> {
         let applied = postpro_orient::apply(&job.path, setups);
         let solved = postpro_kin::solve(kin, &applied.path, &machine.policy)
             .map_err(|e| format!("the re-oriented program does not solve: {e}"))?;
         let cycle = predict::run_solved(&applied.path, &solved, kin, mode, &args.prediction).totals().cycle_time;
-        Ok((applied.path.clone(), solved, cycle, applied))
+        Ok(Variant { path: applied.path.clone(), solved, cycle, applied })
     };
     let whole_variant = whole.as_deref().map(variant);
     let per_path_variant = variant(&per_path);
-    let cycle_of = |v: Option<&Result<(ToolPath, Solved, f64, postpro_orient::Applied), String>>| -> Cycle {
+    let cycle_of = |v: Option<&Result<Variant, String>>| -> Cycle {
         match v {
             None => Err("no set-up reaches a vertex within the cone".into()),
-            Some(Ok((_, _, c, _))) => Ok(*c),
+            Some(Ok(v)) => Ok(v.cycle),
             Some(Err(e)) => Err(e.clone()),
         }
     };
@@ -189,7 +197,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
     let notes: Vec<String> = [whole_variant.as_ref().and_then(|v| v.as_ref().ok()), per_path_variant.as_ref().ok()]
         .into_iter()
         .flatten()
-        .flat_map(|(_, _, _, applied)| {
+        .flat_map(|Variant { applied, .. }| {
             let mut notes: Vec<String> = applied
                 .not_ball
                 .iter()
@@ -240,7 +248,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
     if let Some(out) = &args.apply {
         let chosen_variant = if args.per_path { Some(per_path_variant) } else { whole_variant };
         let (path, solved) = match chosen_variant {
-            Some(Ok((path, solved, _, _))) => (path, solved),
+            Some(Ok(Variant { path, solved, .. })) => (path, solved),
             Some(Err(e)) => return fail(&format!("error: nothing written: {e}\n"), 1),
             None => return fail("error: nothing written: no set-up reaches a vertex within the cone\n", 1),
         };
