@@ -210,10 +210,12 @@ impl Stepper<'_> {
                 let tau = time_to(self.u, self.v, self.a, j, at, self.h);
                 let (_, vc, _) = advance(self.u, self.v, self.a, j, tau);
                 if self.caps[self.k].0 <= 0.0 {
-                    observer.crossing(self.k, self.t + final_phase(self.a, j, self.h).unwrap_or(tau), 0.0, Limit::Stop);
                     // An exact stop: the motion ends at the junction, at the end of the braking's
-                    // last phase (the acceleration eased to 0 at the jerk chosen).
-                    self.t += final_phase(self.a, j, self.h).unwrap_or(tau);
+                    // last phase: the deceleration eased to 0 at the piece's jerk, never sooner.
+                    let ease = if self.a < 0.0 { -self.a / piece.jerk } else { 0.0 };
+                    let end = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease);
+                    observer.crossing(self.k, self.t + end, 0.0, Limit::Stop);
+                    self.t += end;
                     self.u = at;
                     self.v = 0.0;
                     self.a = 0.0;
@@ -247,7 +249,8 @@ impl Stepper<'_> {
                 // The speed reaches 0 within this step.
                 let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
                 let (u_rest, _, _) = advance(self.u, self.v, self.a, j, tau);
-                let tau = final_phase(self.a, j, self.h).unwrap_or(tau);
+                let ease = if self.a < 0.0 { -self.a / piece.jerk } else { 0.0 };
+                let tau = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease);
                 let at = self.ends[self.k];
                 let rest = (at - u_rest).max(0.0);
                 self.t += tau;
@@ -379,7 +382,10 @@ impl Stepper<'_> {
             // after jerk `jj`.
             let slack = |jj: f64| {
                 let (u1, v1, a1) = advance(u, v, a, jj, h);
-                at - u1 - reach_distance(v1, a1, cap, a_path, j_path, p.jerk)
+                let room = at - u1;
+                // A state on the braking curve itself fits: the rounding of one step must not
+                // push it off (it would brake too hard, stop short and creep to the end).
+                room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk) + 1e-9 * (1.0 + room.abs())
             };
             let fits = |jj: f64| slack(jj) >= 0.0;
             if !fits(j) {
