@@ -453,7 +453,7 @@ fn largest_fitting(slack: &dyn Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 
 /// over the interval: a scan down from `hi`, then regula falsi between the first safe point and
 /// the unsafe one above it; with no safe point, the safest one.
 fn largest_fitting_unimodal(slack: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
-    const STEPS: usize = 16;
+    const STEPS: usize = 4;
     let mut above = hi;
     let mut best = (f64::NEG_INFINITY, lo);
     for i in 0..=STEPS {
