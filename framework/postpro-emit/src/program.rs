@@ -62,9 +62,12 @@ pub struct Options {
 /// It becomes a [`Block::Comment`] (cleaned and cut to the line length like every comment)
 /// immediately before the first block the step writes. Where the step writes none of its own,
 /// it goes where that block would stand: a linearization point in TCP mode, a feed move in a
-/// `BSPLINE` run (before the first control point of the span that ends at the step), a move that
-/// changes no axis. An annotation whose step is past the last one is written after the last
-/// motion. None is ever dropped.
+/// `BSPLINE` run (before the first control point of the span that ends at the step; for a
+/// linearization point, the span of the next CL point), a move that changes no axis. A
+/// `BSPLINE` run written as `G1` blocks instead (too short, or the spline cannot follow it) has a
+/// block for every step, linearization points included, each with its annotations before it. An
+/// annotation whose step is past the last one is written after the last motion. None is ever
+/// dropped.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Annotation {
     /// Index into [`Solved::steps`].
@@ -474,11 +477,13 @@ struct Builder<'a> {
     tcp_on: bool,
     spindle_rpm: Option<f64>,
     clamped: usize,
-    /// BSPLINE mode: the feed moves waiting to be fitted, with their feed text.
-    run: Vec<(Step, Option<String>)>,
-    /// The position before the run (its start point).
+    /// BSPLINE mode: the feed moves waiting to be fitted, linearization points included (the
+    /// spline goes through the others; written as G1, the run has a block for each).
+    run: Vec<Queued>,
+    /// The position before the run (its start point): the last step written or queued that is
+    /// not a linearization point.
     run_start: Option<Step>,
-    /// The last step written or queued.
+    /// The last step written or queued, linearization points aside.
     last_step: Option<Step>,
     /// Words the reader does not know: carried as comments.
     unknown: std::collections::BTreeSet<String>,
@@ -486,9 +491,35 @@ struct Builder<'a> {
     notes: Vec<usize>,
     /// The next one of `notes` to write.
     next_note: usize,
-    /// BSPLINE mode: the annotations held for the run, as (run index, annotation index); one
-    /// with the index `run.len()` goes after the run.
-    run_notes: Vec<(usize, usize)>,
+    /// BSPLINE mode: the comments held for the run, in order of their run positions.
+    run_notes: Vec<Held>,
+}
+
+/// A feed move queued in a `BSPLINE` run.
+struct Queued {
+    step: Step,
+    /// The F value as written.
+    feed: String,
+    /// A point added by linearization: not fitted, written only when the run is written as G1.
+    linearized: bool,
+}
+
+/// A comment held for a `BSPLINE` run.
+struct Held {
+    /// The run position of the block it goes before; `run.len()` or more: after the run.
+    at: usize,
+    /// Carried over from the run before, with the linearization points it ended with (they lead
+    /// to this run's first point): when this run is a spline, written before its `BSPLINE`, right
+    /// after that run.
+    carried: bool,
+    text: HeldText,
+}
+
+enum HeldText {
+    /// An index into `options.annotations`.
+    Note(usize),
+    /// An IKT decision's comment.
+    Decision(String),
 }
 
 impl<'a> Builder<'a> {
@@ -582,28 +613,37 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// Holds the annotations of the steps up to `k` for the run, before its point `r`.
-    fn hold_notes(&mut self, k: usize, r: usize) {
-        for at in self.take_notes(k) {
-            let i = self.notes[at];
-            self.run_notes.push((r, i));
+    /// Holds the annotations of the steps up to `k` for the run, before its position `at`.
+    fn hold_notes(&mut self, k: usize, at: usize) {
+        for n in self.take_notes(k) {
+            let i = self.notes[n];
+            self.run_notes.push(Held { at, carried: false, text: HeldText::Note(i) });
         }
     }
 
-    /// Writes the annotations `held` for a run from `*next` on, up to those of run index `r`.
-    fn held_notes_upto(&mut self, held: &[(usize, usize)], next: &mut usize, r: usize) {
-        while let Some(&(at, i)) = held.get(*next) {
-            if at > r {
+    /// Writes the comments `held` for a run from `*next` on, while `upto` accepts them.
+    fn held_upto(&mut self, held: &[Held], next: &mut usize, upto: impl Fn(&Held) -> bool) {
+        while let Some(h) = held.get(*next) {
+            if !upto(h) {
                 break;
             }
             *next += 1;
-            self.note(i);
+            match &h.text {
+                HeldText::Note(i) => self.note(*i),
+                HeldText::Decision(text) => self.comment(text),
+            }
         }
     }
 
     fn decision(&mut self, noted: &Noted) {
-        self.flush_run();
-        self.comment(&format!("postpro: {}", noted.decision));
+        self.flush_run(true);
+        let text = format!("postpro: {}", noted.decision);
+        if self.run.is_empty() {
+            self.comment(&text);
+        } else {
+            // Linearization points wait for their step: the comment goes before it.
+            self.run_notes.push(Held { at: self.run.len(), carried: true, text: HeldText::Decision(text) });
+        }
     }
 
     fn set_feed_mode(&mut self, mode: &'static str) {
@@ -686,27 +726,28 @@ impl<'a> Builder<'a> {
                 _ => None,
             };
             match feed {
-                // The spline goes through the CL points; it is checked against the tolerance itself.
-                // The step's annotations go with the next point queued (whose span holds it).
-                Some(_) if step.kind == StepKind::Linearized => {
-                    self.hold_notes(k, self.run.len());
-                    return Ok(());
-                }
+                // The spline goes through the CL points (it is checked against the tolerance
+                // itself); the linearization points are queued for a run written as G1.
                 Some(f) => {
                     let mut text = String::new();
                     push_number(&mut text, f.value, self.dialect.feed_decimals, false);
-                    if self.run.last().is_some_and(|(_, t)| t.as_deref() != Some(text.as_str())) {
-                        self.flush_run();
+                    let linearized = step.kind == StepKind::Linearized;
+                    // A point at another feed ends the run; the linearization points queued for it
+                    // (at its feed) go on into the next.
+                    if !linearized && self.run.iter().rev().find(|q| !q.linearized).is_some_and(|q| q.feed != text) {
+                        self.flush_run(true);
                     }
                     if self.run.is_empty() {
                         self.run_start = self.last_step;
                     }
                     self.hold_notes(k, self.run.len());
-                    self.run.push((*step, Some(text)));
-                    self.last_step = Some(*step);
+                    self.run.push(Queued { step: *step, feed: text, linearized });
+                    if !linearized {
+                        self.last_step = Some(*step);
+                    }
                     return Ok(());
                 }
-                None => self.flush_run(),
+                None => self.flush_run(false),
             }
         }
         self.last_step = Some(*step);
@@ -806,7 +847,7 @@ impl<'a> Builder<'a> {
 
     fn item(&mut self, kind: &ItemKind) {
         if !matches!(kind, ItemKind::Comment(_) | ItemKind::Frame(_) | ItemKind::Multax(_) | ItemKind::ToolShape(_)) {
-            self.flush_run();
+            self.flush_run(false);
         }
         match kind {
             ItemKind::ToolChange(t) => {
@@ -926,24 +967,37 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// Writes the queued run of feed moves as a B-spline, or as G1 moves when it is too short or
-    /// the spline cannot follow it within the tolerance.
+    /// Writes the queued run of feed moves as a B-spline through its points that are not
+    /// linearization points, or as G1 moves through all of them when it is too short or the
+    /// spline cannot follow it within the tolerance.
+    ///
+    /// With `carry`, the linearization points after the run's last other point (those of a point
+    /// still to come, which starts the next run) stay queued, with the comments held for them and
+    /// after them, for the next run.
     ///
     /// The annotations held for the run go before the first control point of the span that ends
-    /// at their point (after `BSPLINE`), or before their point's block when written as G1; those
-    /// held past the run's last point go after it.
-    fn flush_run(&mut self) {
-        let held = std::mem::take(&mut self.run_notes);
-        let mut next = 0;
-        if self.run.is_empty() {
-            self.held_notes_upto(&held, &mut next, usize::MAX);
-            return;
-        }
-        let run = std::mem::take(&mut self.run);
+    /// at their point (after `BSPLINE`; a linearization point's: at the next point of the spline),
+    /// or before their point's block when written as G1; those held past the run's last point go
+    /// after it. Comments carried from the run before go before `BSPLINE`.
+    fn flush_run(&mut self, carry: bool) {
+        let mut run = std::mem::take(&mut self.run);
+        let mut held = std::mem::take(&mut self.run_notes);
         let start = self.run_start.take();
-        let fitted = start.and_then(|start| {
-            let joints: Vec<Joints> = std::iter::once(start.joints).chain(run.iter().map(|(s, _)| s.joints)).collect();
-            let poses: Vec<Pose> = std::iter::once(start.pose).chain(run.iter().map(|(s, _)| s.pose)).collect();
+        // The run up to its last point that is not a linearization point.
+        let split = run.iter().rposition(|q| !q.linearized).map_or(0, |i| i + 1);
+        if carry && split < run.len() {
+            self.run = run.split_off(split);
+            self.run_start = if split > 0 { Some(run[split - 1].step) } else { start };
+            let from = held.partition_point(|h| h.at < split);
+            self.run_notes =
+                held.split_off(from).into_iter().map(|h| Held { at: h.at - split, carried: true, ..h }).collect();
+        }
+        let mut next = 0;
+        // The points the spline goes through, after the start (point 0 of the fit).
+        let points: Vec<&Step> = run.iter().filter(|q| !q.linearized).map(|q| &q.step).collect();
+        let fitted = start.filter(|_| !points.is_empty()).and_then(|start| {
+            let joints: Vec<Joints> = std::iter::once(start.joints).chain(points.iter().map(|s| s.joints)).collect();
+            let poses: Vec<Pose> = std::iter::once(start.pose).chain(points.iter().map(|s| s.pose)).collect();
             let tolerance = self.machine.policy.linearization_tolerance;
             let cone = self.machine.policy.singular_cone;
             crate::bspline::fit_indexed(
@@ -953,48 +1007,56 @@ impl<'a> Builder<'a> {
                 cone,
             )
         });
-        let feed = run[0].1.clone().unwrap_or_default();
-        match fitted {
-            Some((spline, _, index)) => {
-                let n = self.n();
-                self.push(Block::BsplineOn { n, degree: crate::bspline::DEGREE, feed });
-                // Run point `r` is point `r + 1` of the fit (the start is point 0): its span
-                // begins with the control point after that of the point before it.
-                let mut r = 0;
-                for (k, control) in spline.control.iter().enumerate().skip(1) {
-                    while r < run.len() && index.get(r).is_some_and(|&before| k > before) {
-                        self.held_notes_upto(&held, &mut next, r);
-                        r += 1;
-                    }
-                    let step = Step { joints: *control, ..run[run.len() - 1].0 };
-                    let words = self.axis_words(&step, true);
-                    let mut pl = String::new();
-                    push_number(&mut pl, spline.pl(k), 4, false);
-                    let n = self.n();
-                    self.push(Block::ControlPoint { n, words, pl });
+        let mut g1_from = 0;
+        if let Some((spline, _, index)) = fitted {
+            let last = *points[points.len() - 1];
+            let feed = run.iter().find(|q| !q.linearized).map(|q| q.feed.clone()).unwrap_or_default();
+            self.held_upto(&held, &mut next, |h| h.carried);
+            let n = self.n();
+            self.push(Block::BsplineOn { n, degree: crate::bspline::DEGREE, feed });
+            // `rank[p]`: the points before run position `p`. A comment held before position `p`
+            // goes with point `rank[p]`; point `r` is point `r + 1` of the fit (the start is point
+            // 0): its span begins with the control point after that of the point before it.
+            let rank: Vec<usize> = std::iter::once(0)
+                .chain(run[..split].iter().scan(0, |r, q| {
+                    *r += usize::from(!q.linearized);
+                    Some(*r)
+                }))
+                .collect();
+            let mut r = 0;
+            for (k, control) in spline.control.iter().enumerate().skip(1) {
+                while r < points.len() && index.get(r).is_some_and(|&before| k > before) {
+                    self.held_upto(&held, &mut next, |h| h.at < split && rank[h.at] <= r);
+                    r += 1;
                 }
+                let step = Step { joints: *control, ..last };
+                let words = self.axis_words(&step, true);
+                let mut pl = String::new();
+                push_number(&mut pl, spline.pl(k), 4, false);
                 let n = self.n();
-                self.push(Block::BsplineOff { n });
-                self.last_feed = None;
+                self.push(Block::ControlPoint { n, words, pl });
             }
-            None => {
-                for (r, (step, feed)) in run.iter().enumerate() {
-                    self.held_notes_upto(&held, &mut next, r);
-                    let words = self.axis_words(step, false);
-                    let feed = feed.clone().filter(|f| self.last_feed.as_deref() != Some(f.as_str()));
-                    if let Some(f) = &feed {
-                        self.last_feed = Some(f.clone());
-                    }
-                    let n = self.n();
-                    self.push(Block::Linear { n, words, feed, note: None });
-                }
-            }
+            let n = self.n();
+            self.push(Block::BsplineOff { n });
+            self.last_feed = None;
+            // Linearization points after the last point (a run ended without their point): G1.
+            g1_from = split;
         }
-        self.held_notes_upto(&held, &mut next, usize::MAX);
+        for (p, q) in run.iter().enumerate().skip(g1_from) {
+            self.held_upto(&held, &mut next, |h| h.at <= p);
+            let words = self.axis_words(&q.step, false);
+            let feed = (self.last_feed.as_deref() != Some(q.feed.as_str())).then(|| q.feed.clone());
+            if let Some(f) = &feed {
+                self.last_feed = Some(f.clone());
+            }
+            let n = self.n();
+            self.push(Block::Linear { n, words, feed, note: None });
+        }
+        self.held_upto(&held, &mut next, |_| true);
     }
 
     fn finish(mut self) -> Result<(), EmitError> {
-        self.flush_run();
+        self.flush_run(false);
         // Annotations of steps past the last one: after the last motion, never dropped.
         self.notes_upto(usize::MAX);
         if self.tcp_on {

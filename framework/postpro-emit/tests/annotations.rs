@@ -3,14 +3,16 @@
 //! reorientation the Mikron's joint interpolation must linearize, a retract). Each annotation is
 //! found exactly once, in order, between the motion of the step before it and the motion of its
 //! step, read back from the program text (BSPLINE: before the control points of its step's span).
-//! One program per dialect is pinned whole by insta.
+//! One program per dialect is pinned whole by insta. A BSPLINE run written as G1 blocks (too short,
+//! or a spline that cannot follow it) keeps its linearization points, read back through the
+//! forward kinematics, with their annotations before their own blocks.
 
 use std::collections::HashMap;
 
 use postpro_cl::{Source, ToolPath, read};
 use postpro_emit::bspline::{DEGREE, Spline};
 use postpro_emit::{Annotation, Dialect, Mode, Options, Prediction, build, builtin_template, dialect, render};
-use postpro_kin::{Joints, Kinematics, Solved, Step, StepKind, solve, solver_for};
+use postpro_kin::{Joints, Kinematics, Solved, Step, StepKind, linearize, solve, solver_for};
 use postpro_machine::Registry;
 use postpro_machine::model::{AxisKind, Machine};
 
@@ -37,7 +39,11 @@ fn cl_text() -> String {
 }
 
 fn machine() -> Machine {
-    Registry::builtin().expect("built-ins").find("mikron-ucp710").expect("machine").machine.clone()
+    machine_named("mikron-ucp710")
+}
+
+fn machine_named(name: &str) -> Machine {
+    Registry::builtin().expect("built-ins").find(name).expect("machine").machine.clone()
 }
 
 fn prediction() -> Prediction {
@@ -75,9 +81,12 @@ fn fixture() -> Fixture {
 }
 
 fn fixture_of(src: Source) -> Fixture {
+    fixture_on(src, machine())
+}
+
+fn fixture_on(src: Source, machine: Machine) -> Fixture {
     let path = read(&src);
     assert!(!path.has_errors(), "the test path reads");
-    let machine = machine();
     let kin = solver_for(&machine);
     let solved = solve(kin.as_ref(), &path, &machine.policy).expect("solves");
     Fixture { path, solved, kin, machine }
@@ -141,9 +150,26 @@ fn position(step: &Step, mode: Mode, machine: &Machine) -> Vec<(String, f64)> {
         .collect()
 }
 
-/// Whether the mode writes a block for the step itself (TCP and BSPLINE skip linearization points).
-fn written(step: &Step, mode: Mode) -> bool {
-    !(matches!(mode, Mode::Tcp | Mode::Bspline) && step.kind == StepKind::Linearized)
+/// Whether the mode writes a block for each step (in a spline: a point of it). TCP skips the
+/// linearization points; BSPLINE too, but for those of a run written as G1 blocks: those whose
+/// point (the next step that is not one) is reached by a `G1` block outside the splines.
+fn written_steps(steps: &[Step], mode: Mode, machine: &Machine, back: &ReadBack) -> Vec<bool> {
+    (0..steps.len())
+        .map(|j| {
+            if steps[j].kind != StepKind::Linearized {
+                return true;
+            }
+            match mode {
+                Mode::G1 | Mode::InverseTime => true,
+                Mode::Tcp => false,
+                Mode::Bspline => {
+                    let target = (j..steps.len()).find(|&b| steps[b].kind != StepKind::Linearized).unwrap_or(j);
+                    let words = position(&steps[target], mode, machine);
+                    (0..back.state.len()).any(|i| back.g1[i] && at(&back.state[i], &words))
+                }
+            }
+        })
+        .collect()
 }
 
 /// The program read back: the position words in force after each line, and which lines move.
@@ -151,11 +177,14 @@ struct ReadBack {
     /// `state[i]`: the words in force after line `i`.
     state: Vec<HashMap<String, f64>>,
     motion: Vec<bool>,
+    /// `G1` blocks with position words outside the splines.
+    g1: Vec<bool>,
 }
 
 fn read_back(text: &str, letters: &[String]) -> ReadBack {
     let mut current: HashMap<String, f64> = HashMap::new();
-    let (mut state, mut motion) = (Vec::new(), Vec::new());
+    let (mut state, mut motion, mut g1) = (Vec::new(), Vec::new(), Vec::new());
+    let mut spline = false;
     for line in text.lines() {
         let code = line.split(['(', ';']).next().unwrap_or("");
         let mut moved = false;
@@ -169,10 +198,21 @@ fn read_back(text: &str, letters: &[String]) -> ReadBack {
                 moved = true;
             }
         }
+        // The words of the block, its number aside.
+        let words: Vec<&str> = code
+            .split_whitespace()
+            .skip_while(|t| t.strip_prefix('N').is_some_and(|n| n.parse::<u32>().is_ok()))
+            .collect();
+        if words.first() == Some(&"BSPLINE") {
+            spline = true;
+        } else if spline && words == ["G1"] {
+            spline = false;
+        }
         state.push(current.clone());
+        g1.push(moved && !spline && words.first() == Some(&"G1"));
         motion.push(moved);
     }
-    ReadBack { state, motion }
+    ReadBack { state, motion, g1 }
 }
 
 /// The spline between the lines `open` (`BSPLINE`) and `close` (`G1`), in the written units,
@@ -236,6 +276,8 @@ fn check(text: &str, f: &Fixture, d: &Dialect, options: &Options, label: &str) -
     let back = read_back(text, &letters);
     let lines: Vec<&str> = text.lines().collect();
     let pos = |k: usize| position(&steps[k], mode, &f.machine);
+    let w = written_steps(steps, mode, &f.machine, &back);
+    let written = |j: usize| w[j];
     let mut last = 0;
     let mut refined = 0;
     for a in &options.annotations {
@@ -253,8 +295,8 @@ fn check(text: &str, f: &Fixture, d: &Dialect, options: &Options, label: &str) -
         }
         let k = a.step;
         // The motion the comment precedes: its own step's, or the next written step's.
-        let next = (k..steps.len()).find(|&j| written(&steps[j], mode)).expect("a written step after");
-        let prev = (0..k).rev().find(|&j| written(&steps[j], mode));
+        let next = (k..steps.len()).find(|&j| written(j)).expect("a written step after");
+        let prev = (0..k).rev().find(|&j| written(j));
         let spline = (mode == Mode::Bspline)
             .then(|| {
                 let open = (0..c).rev().find(|&i| lines[i].contains("BSPLINE") || lines[i].ends_with("G1"))?;
@@ -265,15 +307,13 @@ fn check(text: &str, f: &Fixture, d: &Dialect, options: &Options, label: &str) -
             // Inside a spline: after the control points of the run's points before the step.
             let close = (c..lines.len()).find(|&i| lines[i].ends_with("G1")).expect("the spline ends");
             let before = &back.state[open - 1];
-            let start = (0..k).rev().find(|&j| written(&steps[j], mode) && at(before, &pos(j))).expect("run start");
-            let end = (start..steps.len())
-                .rev()
-                .find(|&j| written(&steps[j], mode) && at(&back.state[close], &pos(j)))
-                .expect("run end");
+            let start = (0..k).rev().find(|&j| written(j) && at(before, &pos(j))).expect("run start");
+            let end =
+                (start..steps.len()).rev().find(|&j| written(j) && at(&back.state[close], &pos(j))).expect("run end");
             assert!(start < k && k <= end, "{label}: step {k} in the run {start}..={end}");
-            let points = (start + 1..=end).filter(|&j| written(&steps[j], mode)).count();
+            let points = (start + 1..=end).filter(|&j| written(j)).count();
             let controls = (open + 1..close).filter(|&i| back.motion[i]).count();
-            let r = (start + 1..k).filter(|&j| written(&steps[j], mode)).count();
+            let r = (start + 1..k).filter(|&j| written(j)).count();
             let ahead = (open + 1..c).filter(|&i| back.motion[i]).count();
             // One control point per point of the run, and one per midpoint the fit adds.
             assert!(controls >= points, "{label}: {controls} control points for {points} points");
@@ -286,7 +326,7 @@ fn check(text: &str, f: &Fixture, d: &Dialect, options: &Options, label: &str) -
             // (the start, or a CL point), found on the spline rebuilt from the program: the one
             // whose Greville abscissa is nearest to the parameter where the spline passes it.
             let spline = spline_of(&lines, &back, &letters, open, close);
-            let previous = (start..k).rev().find(|&j| written(&steps[j], mode)).unwrap_or(start);
+            let previous = (start..k).rev().find(|&j| written(j)).unwrap_or(start);
             let values: Vec<f64> = pos(previous).into_iter().map(|(_, v)| v).collect();
             let own = nearest_control(&spline, &Joints::from_slice(&values));
             assert_eq!(ahead, own, "{label}: `{}` right after the control point of step {previous}\n{text}", a.text);
@@ -410,6 +450,156 @@ fn annotations_on_a_whole_example() {
         let refined = check(&text, &f, d, &options, &format!("hypar {}", mode.name()));
         if mode == Mode::Bspline {
             assert!(refined > 0, "some annotations stand in splines the fit refined");
+        }
+    }
+}
+
+/// Rapid in, plunge at F500, then two moves at F1500 tilting the tool by 20° each (the Mikron
+/// linearizes both): with the point before them, three points, too few for a spline.
+fn two_tilts_text() -> String {
+    let (s20, c20) = (20f64.to_radians().sin(), 20f64.to_radians().cos());
+    let (s40, c40) = (40f64.to_radians().sin(), 40f64.to_radians().cos());
+    format!(
+        "PARTNO/TWO TILTS\nLOAD/TOOL,1,ADJUST,1\nSPINDL/RPM,12000,CLW\nRAPID\n\
+         GOTO/10.0000,5.0000,20.0000,0.0000000,0.0000000,1.0000000\nFEDRAT/MMPM,500\nGOTO/10.0000,5.0000,0.0000\n\
+         FEDRAT/MMPM,1500\nGOTO/13.0000,5.0000,0.0000,0.0000000,{s20:.7},{c20:.7}\n\
+         GOTO/16.0000,5.0000,0.0000,0.0000000,{s40:.7},{c40:.7}\nRAPID\nGOTO/16.0000,5.0000,30.0000\nEND\nFINI\n"
+    )
+}
+
+/// The programs where a BSPLINE run is written as G1 blocks with linearization points in it: the
+/// annotated path (the reorientation: one point, its linearization point carried over from the
+/// spline before it by the change of feed), two tilting moves (too few points), and the hypar on
+/// the MAHO (near the singularity the spline cannot follow the C swing; a decision on the run's
+/// first point, after linearization points).
+fn fallback_cases() -> Vec<(&'static str, Fixture)> {
+    let hypar = "examples/cl/hypar-5axis.cl";
+    let file = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..").join(hypar);
+    vec![
+        ("annotated", fixture()),
+        ("two tilts", fixture_of(Source::new("tilts.cl", two_tilts_text()))),
+        (
+            "hypar on the MAHO",
+            fixture_on(
+                Source::from_bytes(hypar, std::fs::read(&file).expect("the example")),
+                machine_named("maho600e"),
+            ),
+        ),
+    ]
+}
+
+/// A BSPLINE run written as G1 blocks (too short, or a spline that cannot follow it) writes every
+/// step of the run in order, linearization points included: read back, each G1 block keeps the
+/// tool tip, through the forward kinematics, within the linearization tolerance of its programmed
+/// segment, where the straight move between the CL points would not. An annotation on a
+/// linearization point of such a run stands right before that point's own block. The header's
+/// count of points added by linearization is that of the solution, as in G1 mode.
+#[test]
+fn a_bspline_run_written_as_g1_keeps_its_linearization_points() {
+    let d = dialect("siemens-840d").expect("dialect");
+    for (name, f) in fallback_cases() {
+        let steps = &f.solved.steps;
+        let tolerance = f.machine.policy.linearization_tolerance;
+        let plain = Options {
+            mode: Mode::Bspline,
+            program_name: "FALLBACK".into(),
+            source_name: name.into(),
+            block_numbers: false,
+            prediction: None,
+            annotations: Vec::new(),
+        };
+        let text = program(&f, d, &plain);
+        // The header counts the points linearization added, whatever the mode writes of them.
+        let count = format!("added by linearization: {} ", f.solved.inserted);
+        let g1 = program(&f, d, &Options { mode: Mode::G1, ..plain.clone() });
+        let header = |t: &str| t.lines().find(|l| l.contains("CL points: ")).map(str::to_string);
+        assert!(text.contains(&count), "{name}: {count}\n{text}");
+        assert_eq!(header(&text), header(&g1), "{name}: the header as in G1 mode");
+
+        let letters: Vec<String> = f.machine.axes.iter().map(|a| a.letter.clone()).collect();
+        let back = read_back(&text, &letters);
+        let pos = |k: usize| position(&steps[k], Mode::Bspline, &f.machine);
+        let joints = |i: usize| {
+            let values: Vec<f64> = f
+                .machine
+                .axes
+                .iter()
+                .map(|a| {
+                    let v = back.state[i][&a.letter];
+                    if a.kind == AxisKind::Rotary { v.to_radians() } else { v }
+                })
+                .collect();
+            Joints::from_slice(&values)
+        };
+        // Each G1 block outside the splines is the block of the next step at its position.
+        let mut next = 0;
+        let mut blocks: Vec<(usize, usize)> = Vec::new(); // (line, step)
+        for i in (0..back.g1.len()).filter(|&i| back.g1[i]) {
+            let Some(s) = (next..steps.len()).find(|&s| at(&back.state[i], &pos(s))) else {
+                panic!("{name}: line {} is no step's block\n{text}", i + 1)
+            };
+            blocks.push((i, s));
+            next = s + 1;
+        }
+        // The linearization points of the runs written as G1: those of a CL point reached by a G1
+        // block. Each has its block, in order, and the straight move to the CL point leaves the band.
+        let mut fallback = 0;
+        for &(_, b) in blocks.iter().filter(|&&(_, s)| steps[s].kind != StepKind::Linearized) {
+            let first = (0..b).rev().take_while(|&j| steps[j].kind == StepKind::Linearized).last();
+            let Some(first) = first else { continue };
+            for j in first..b {
+                assert!(
+                    blocks.iter().any(|&(_, s)| s == j),
+                    "{name}: linearization point {j} of step {b} written\n{text}"
+                );
+            }
+            let straight = linearize::deviation(f.kin.as_ref(), &steps[first - 1], &steps[b]);
+            assert!(straight > tolerance, "{name}: step {b}'s straight move is {straight} mm off");
+            fallback += b - first;
+        }
+        assert!(fallback > 0, "{name}: a run written as G1 with linearization points\n{text}");
+        // Read back: the tip between consecutive positions stays within the tolerance of the
+        // programmed segment (from the step before the CL point to the CL point).
+        for &(i, s) in &blocks {
+            let b = (s..steps.len()).find(|&b| steps[b].kind != StepKind::Linearized).unwrap_or(s);
+            let a = (0..b).rev().find(|&a| steps[a].kind != StepKind::Linearized).expect("a step before");
+            let (from, to) = (joints(i - 1), joints(i));
+            let (p, q) = (steps[a].pose.tip, steps[b].pose.tip);
+            for t in 0..=16 {
+                let tip = f.kin.forward(&from.lerp(&to, f64::from(t) / 16.0)).tip;
+                let pq = q - p;
+                let u = ((tip - p).dot(&pq) / pq.norm_squared().max(1e-12)).clamp(0.0, 1.0);
+                let off = (tip - (p + pq * u)).norm();
+                assert!(
+                    off < tolerance + 0.005,
+                    "{name}: line {} (step {s}) is {off} mm off the segment of step {b}\n{text}",
+                    i + 1
+                );
+            }
+        }
+
+        // Annotations on every linearization point written, on their CL points, on every 37th step.
+        let lin: Vec<usize> =
+            blocks.iter().map(|&(_, s)| s).filter(|&s| steps[s].kind == StepKind::Linearized).collect();
+        let mut marked: Vec<usize> = lin.iter().flat_map(|&j| [j, j + 1]).chain((0..steps.len()).step_by(37)).collect();
+        marked.sort_unstable();
+        marked.dedup();
+        let n = steps.len();
+        let annotations: Vec<Annotation> =
+            marked.iter().map(|&k| Annotation { step: k, text: format!("note at step {k} of {n}") }).collect();
+        for block_numbers in [false, true] {
+            let options = Options { annotations: annotations.clone(), block_numbers, ..plain.clone() };
+            let text = program(&f, d, &options);
+            check(&text, &f, d, &options, &format!("{name} {block_numbers}"));
+            // Right before the point's own G1 block: the next line that moves.
+            let lines: Vec<&str> = text.lines().collect();
+            let back = read_back(&text, &letters);
+            for &j in &lin {
+                let note = format!("note at step {j} of {n}");
+                let c = lines.iter().position(|l| l.contains(note.as_str())).expect("written");
+                let own = (c + 1..lines.len()).find(|&i| back.motion[i]).expect("a block after");
+                assert!(back.g1[own] && at(&back.state[own], &pos(j)), "{name}: `{note}` before its block\n{text}");
+            }
         }
     }
 }
