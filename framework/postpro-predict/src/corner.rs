@@ -8,6 +8,7 @@
 //! path direction (Siemens `CURV_EFFECT_ON_PATH_ACCEL`).
 
 use nalgebra::Vector3;
+use postpro_machine::model::{AxisKind, Machine};
 
 /// The interior angle (rad) between a block arriving along `incoming` and one leaving along
 /// `outgoing`: π when they are collinear, 0 when the second goes back along the first. `None`
@@ -33,6 +34,48 @@ pub fn corner_speed(incoming: &Vector3<f64>, outgoing: &Vector3<f64>, tolerance:
         None => f64::INFINITY,
         Some(alpha) => (blend_radius(tolerance, alpha) * amax * (1.0 - share)).sqrt(),
     }
+}
+
+/// The acceleration the CNC rounds corners with: its tangential (path) acceleration, or the
+/// weakest linear axis's when the machine file gives none.
+pub fn path_acceleration(machine: &Machine) -> f64 {
+    machine.cnc.tangential_accel.unwrap_or_else(|| {
+        machine.axes.iter().filter(|a| a.kind == AxisKind::Linear).map(|a| a.amax).fold(f64::INFINITY, f64::min)
+    })
+}
+
+/// The cap on a path parameter's speed where a block moving the axes by `a.0` over a parameter
+/// length `a.1` meets one moving them by `b.0` over `b.1`, the tip turning from `incoming` to
+/// `outgoing` and covering at most `tip_per_unit` mm per unit of the parameter: the tip's corner
+/// speed ([`corner_speed`]) and, for every axis, paper 001's deviation `e = Δv² / Amax`, i.e. a
+/// velocity jump of at most `sqrt(e · Amax)` (`e` the contour tolerance read in the axis's NC
+/// unit: mm, or degrees for a rotary axis). Infinite when nothing turns.
+pub fn junction_cap(
+    machine: &Machine,
+    incoming: &Vector3<f64>,
+    outgoing: &Vector3<f64>,
+    tip_per_unit: f64,
+    a: (&[f64], f64),
+    b: (&[f64], f64),
+) -> f64 {
+    let cnc = &machine.cnc;
+    let mut cap = f64::INFINITY;
+    let tip =
+        corner_speed(incoming, outgoing, cnc.contour_tolerance, path_acceleration(machine), cnc.curvature_accel_share);
+    if tip.is_finite() && tip_per_unit > 0.0 {
+        cap = tip / tip_per_unit;
+    }
+    for (axis, (x, y)) in machine.axes.iter().zip(a.0.iter().zip(b.0)) {
+        let jump = (y / b.1 - x / a.1).abs();
+        if jump > 0.0 {
+            let tolerance = match axis.kind {
+                AxisKind::Linear => cnc.contour_tolerance,
+                AxisKind::Rotary => cnc.contour_tolerance.to_radians(),
+            };
+            cap = cap.min((tolerance * axis.amax).sqrt() / jump);
+        }
+    }
+    cap
 }
 
 #[cfg(test)]

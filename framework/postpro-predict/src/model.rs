@@ -13,25 +13,20 @@
 //! more: the motion can always stop at the end of the last one.
 
 use crate::block::{Limiter, block_limits};
-use crate::corner::corner_speed;
+use crate::corner::junction_cap;
 use crate::moves::{BlockKind, Blocks};
 use crate::plan::{Junction, Limit, Piece, Track};
-use postpro_machine::model::{AxisKind, Machine};
+use postpro_machine::model::Machine;
 
 /// The track of `blocks` on `machine`, and for each piece the block it stands for (blocks of
 /// no duration have no piece).
 pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
     let cnc = &machine.cnc;
-    let axes = &machine.axes;
     let mut delta = vec![0.0; blocks.axes];
     let mut next_delta = vec![0.0; blocks.axes];
     let mut pieces = Vec::with_capacity(blocks.len());
     let mut junctions: Vec<Junction> = Vec::with_capacity(blocks.len());
     let mut owner = Vec::with_capacity(blocks.len());
-    // The corner's acceleration: the CNC's path acceleration, or the weakest linear axis's.
-    let path_accel = cnc.tangential_accel.unwrap_or_else(|| {
-        axes.iter().filter(|a| a.kind == AxisKind::Linear).map(|a| a.amax).fold(f64::INFINITY, f64::min)
-    });
     let mut dwell_at_start = 0.0;
     let mut pending_stop = false;
     let mut pending_dwell = 0.0;
@@ -50,7 +45,17 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
             } else {
                 let previous = owner[owner.len() - 1];
                 blocks.delta(previous, &mut next_delta);
-                let cap = corner_cap(blocks, machine, previous, i, &next_delta, &delta, path_accel);
+                // In programmed time a block's axis rates are ΔP / T and its tip covers its
+                // nominal tip feed per unit.
+                let tip = blocks.nominal_tip_feed(previous).max(blocks.nominal_tip_feed(i));
+                let cap = junction_cap(
+                    machine,
+                    &blocks.direction(previous),
+                    &blocks.direction(i),
+                    tip,
+                    (&next_delta, blocks.nominal[previous]),
+                    (&delta, nominal),
+                );
                 *last = Junction { cap, limit: Limit::Corner, dwell: 0.0 };
             }
         } else {
@@ -126,35 +131,4 @@ fn piece(blocks: &Blocks, machine: &Machine, i: usize, delta: &[f64], nominal: f
 
 fn finite_or(x: f64, big: f64) -> f64 {
     if x.is_finite() { x } else { big }
-}
-
-/// The cap on the share of the feed where block `a` meets block `b`.
-fn corner_cap(blocks: &Blocks, machine: &Machine, a: usize, b: usize, da: &[f64], db: &[f64], path_accel: f64) -> f64 {
-    let cnc = &machine.cnc;
-    let (ta, tb) = (blocks.nominal[a], blocks.nominal[b]);
-    let mut cap = f64::INFINITY;
-    // The tip rounds the corner within the tolerance.
-    let tip = corner_speed(
-        &blocks.direction(a),
-        &blocks.direction(b),
-        cnc.contour_tolerance,
-        path_accel,
-        cnc.curvature_accel_share,
-    );
-    let fastest_tip = blocks.nominal_tip_feed(a).max(blocks.nominal_tip_feed(b));
-    if tip.is_finite() && fastest_tip > 0.0 {
-        cap = cap.min(tip / fastest_tip);
-    }
-    // Each axis's velocity jumps by at most sqrt(e · Amax).
-    for (axis, (x, y)) in machine.axes.iter().zip(da.iter().zip(db)) {
-        let jump = (y / tb - x / ta).abs();
-        if jump > 0.0 {
-            let tolerance = match axis.kind {
-                AxisKind::Linear => cnc.contour_tolerance,
-                AxisKind::Rotary => cnc.contour_tolerance.to_radians(),
-            };
-            cap = cap.min((tolerance * axis.amax).sqrt() / jump);
-        }
-    }
-    cap
 }

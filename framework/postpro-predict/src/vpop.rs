@@ -22,7 +22,7 @@ use crate::moves::{BlockKind, Blocks};
 use crate::plan::{Junction, Limit, Piece, Track};
 use postpro_kin::Kinematics;
 use postpro_kin::bspline::{self, Spline};
-use postpro_machine::model::{AxisKind, Machine};
+use postpro_machine::model::Machine;
 
 /// What a piece of a track is, for rebuilding the axis motion from the parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,7 +107,6 @@ struct Builder<'a> {
     dwell_at_start: f64,
     /// The last feed seen (mm/s): the pace of a block that only turns the tool.
     reference_feed: f64,
-    path_accel: f64,
     delta: Vec<f64>,
     other: Vec<f64>,
     /// The block and parameter length of the last line piece, for the next corner.
@@ -127,9 +126,6 @@ impl<'a> Builder<'a> {
             pending_dwell: 0.0,
             dwell_at_start: 0.0,
             reference_feed: cnc.feed_max / 60.0,
-            path_accel: cnc.tangential_accel.unwrap_or_else(|| {
-                machine.axes.iter().filter(|a| a.kind == AxisKind::Linear).map(|a| a.amax).fold(f64::INFINITY, f64::min)
-            }),
             delta: vec![0.0; blocks.axes],
             other: vec![0.0; blocks.axes],
             last_line: None,
@@ -191,16 +187,15 @@ impl<'a> Builder<'a> {
         let corner = match self.last_line {
             Some((previous, previous_length)) if self.owner.last() == Some(&previous) => {
                 blocks.delta(previous, &mut self.other);
-                corner_cap(
-                    blocks,
+                // On the tip path a block's tip covers L / ℓ mm per unit (1 unless it only turns).
+                let tip = (blocks.length[previous] / previous_length).max(blocks.length[i] / length);
+                crate::corner::junction_cap(
                     self.machine,
-                    previous,
-                    i,
-                    &self.other,
-                    &self.delta,
-                    previous_length,
-                    length,
-                    self.path_accel,
+                    &blocks.direction(previous),
+                    &blocks.direction(i),
+                    tip,
+                    (&self.other, previous_length),
+                    (&self.delta, length),
                 )
             }
             // After a curve: the tip's direction changes within the tolerance's rounding.
@@ -265,7 +260,7 @@ impl<'a> Builder<'a> {
                     &blocks.direction(previous),
                     &tangent,
                     self.machine.cnc.contour_tolerance,
-                    self.path_accel,
+                    crate::corner::path_acceleration(self.machine),
                     self.machine.cnc.curvature_accel_share,
                 )
             }
@@ -412,38 +407,4 @@ fn tighten(cap: &mut f64, why: &mut Limit, candidate: f64, limit: Limit) {
         *cap = candidate;
         *why = limit;
     }
-}
-
-/// The cap on the tip speed where block `a` (parameter length `la`) meets block `b`.
-#[allow(clippy::too_many_arguments)]
-fn corner_cap(
-    blocks: &Blocks,
-    machine: &Machine,
-    a: usize,
-    b: usize,
-    da: &[f64],
-    db: &[f64],
-    la: f64,
-    lb: f64,
-    path_accel: f64,
-) -> f64 {
-    let cnc = &machine.cnc;
-    let mut cap = crate::corner::corner_speed(
-        &blocks.direction(a),
-        &blocks.direction(b),
-        cnc.contour_tolerance,
-        path_accel,
-        cnc.curvature_accel_share,
-    );
-    for (axis, (x, y)) in machine.axes.iter().zip(da.iter().zip(db)) {
-        let jump = (y / lb - x / la).abs();
-        if jump > 0.0 {
-            let tolerance = match axis.kind {
-                AxisKind::Linear => cnc.contour_tolerance,
-                AxisKind::Rotary => cnc.contour_tolerance.to_radians(),
-            };
-            cap = cap.min((tolerance * axis.amax).sqrt() / jump);
-        }
-    }
-    cap
 }
