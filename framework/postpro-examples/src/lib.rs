@@ -161,16 +161,25 @@ pub fn bundled_examples() -> Vec<(&'static str, String)> {
 /// 30 m/min: the paper's test of `postpro orient`.
 #[must_use]
 pub fn hypar_3plus2_example() -> String {
+    hypar_3plus2(4.0)
+}
+
+/// The 3+2 program of [`hypar_3plus2_example`] with rulings `step` mm apart (in `c`), from
+/// `c = 100 − step` down to `−(100 − step)`.
+#[must_use]
+pub fn hypar_3plus2(step: f64) -> String {
     let z = |x: f64, y: f64| (y * y - x * x) / 500.0 - 8.0;
     let mut text = format!(
         "$$ GENERATOR : postpro-examples (deterministic output)\n$$ {REGENERATE}\n\
          $$ SURFACE   : hyperbolic paraboloid z = (y^2 - x^2)/500 (ball centres), x,y in [-50,50]\n\
-         $$ PATHS     : 3+2, one per ruling y = x + c, c = 96 .. -96 by 4, zig-zag, tool along +z\n\
+         $$ PATHS     : 3+2, one per ruling y = x + c, c = {first} .. -{first} by {step}, zig-zag, tool along +z\n\
          TOOL PATH/HYPAR_RULINGS_3PLUS2,TOOL,BALL_D16\nTLDATA/MILL,16.0000,8.0000,75.0000,0.0000,0.0000\n\
-         LOAD/TOOL,1\nSPINDL/RPM,24000,CLW\nMULTAX\n"
+         LOAD/TOOL,1\nSPINDL/RPM,24000,CLW\nMULTAX\n",
+        first = 100.0 - step
     );
-    for k in 0..49 {
-        let c = 96.0 - 4.0 * f64::from(k);
+    let paths = ((200.0 / step).round() as usize).saturating_sub(1);
+    for k in 0..paths {
+        let c = 100.0 - step * (k as f64 + 1.0);
         let (x0, x1) = (f64::max(-50.0, -50.0 - c), f64::min(50.0, 50.0 - c));
         let (a, b) = if k % 2 == 0 { (x0, x1) } else { (x1, x0) };
         let (p, q) = ([a, a + c, z(a, a + c)], [b, b + c, z(b, b + c)]);

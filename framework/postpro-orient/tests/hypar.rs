@@ -21,27 +21,10 @@ fn z(x: f64, y: f64) -> f64 {
     (y * y - x * x) / 500.0
 }
 
-/// A 3+2 zig-zag CL file (NX style): per path a rapid above the start, a plunge and a retract
-/// along the tool axis at the feed, one cutting segment along the ruling.
+/// A 3+2 zig-zag CL file on the rulings of [`offsets`]: per path a rapid above the start, a
+/// plunge and a retract along the tool axis, one cutting segment along the ruling.
 fn hypar_3p2_zigzag() -> String {
-    let mut text = String::from(
-        "TOOL PATH/HYPAR_RULINGS,TOOL,BALL_D16\nTLDATA/MILL,16.0000,8.0000,75.0000,0.0000,0.0000\n\
-         LOAD/TOOL,1\nSPINDL/RPM,24000,CLW\nFEDRAT/MMPM,30000.0000\n",
-    );
-    for (k, c) in offsets().into_iter().enumerate() {
-        let (x0, x1) = (f64::max(-50.0, -50.0 - c), f64::min(50.0, 50.0 - c));
-        let (a, b) = if k % 2 == 0 { (x0, x1) } else { (x1, x0) };
-        let (p, q) = ([a, a + c, z(a, a + c)], [b, b + c, z(b, b + c)]);
-        let goto = |p: [f64; 3], dz: f64| {
-            format!("GOTO/{:.4},{:.4},{:.4},0.0000000,0.0000000,1.0000000\n", p[0], p[1], p[2] + dz)
-        };
-        text += "RAPID\n";
-        text += &goto(p, 20.0);
-        text += &goto(p, 0.0);
-        text += &goto(q, 0.0);
-        text += &goto(q, 20.0);
-    }
-    text + "END-OF-PATH\n"
+    postpro_examples::hypar_3plus2(2.0)
 }
 
 fn mikron() -> Machine {
