@@ -17,10 +17,6 @@ fn offsets() -> Vec<f64> {
     (0..99).map(|k| 98.0 - 2.0 * f64::from(k)).collect()
 }
 
-fn z(x: f64, y: f64) -> f64 {
-    (y * y - x * x) / 500.0
-}
-
 /// A 3+2 zig-zag CL file on the rulings of [`offsets`]: per path a rapid above the start, a
 /// plunge and a retract along the tool axis, one cutting segment along the ruling.
 fn hypar_3p2_zigzag() -> String {
