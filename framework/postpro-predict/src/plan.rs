@@ -147,7 +147,7 @@ pub fn run(track: &Track, h: f64, observer: &mut dyn Observer) -> f64 {
         ends.push(total);
         caps.push(if i + 1 == n { (0.0, Limit::Stop) } else { track.junction_cap(i) });
     }
-    let mut s = Stepper { track, ends, caps, h, t: track.dwell_at_start, u: 0.0, v: 0.0, a: 0.0, k: 0 };
+    let mut s = Stepper { track, ends, caps, h, t: track.dwell_at_start, u: 0.0, v: 0.0, a: 0.0, k: 0, cruise: None };
     observer.sample(&Sample { t: s.t, u: 0.0, v: 0.0, a: 0.0, j: 0.0, piece: 0, limit: Limit::Stop });
     s.go(observer);
     s.t
@@ -164,6 +164,9 @@ struct Stepper<'a> {
     a: f64,
     /// Current piece.
     k: usize,
+    /// Cruising on this piece at its cap, nothing ahead within braking reach until the
+    /// parameter reaches this value: the next steps need no scan of the junctions.
+    cruise: Option<(usize, f64)>,
 }
 
 /// The state after `h` at constant jerk `j`.
@@ -278,6 +281,17 @@ impl Stepper<'_> {
             }
             self.t += self.h;
             self.u = u1;
+            // Arrived at the piece's speed cap with the acceleration all but ended: cruise
+            // exactly (the rounding of the steps would otherwise make the jerk chatter).
+            let cap = self.track.pieces[self.k.min(n - 1)];
+            let (v1, a1) = if limit == cap.velocity_limit
+                && (v1 - cap.velocity).abs() <= 1e-6 * cap.velocity
+                && a1.abs() <= 1e-4 * cap.acceleration
+            {
+                (cap.velocity, 0.0)
+            } else {
+                (v1, a1)
+            };
             self.v = v1;
             let piece_now = self.k.min(n - 1);
             // Across a junction the axes' accelerations jump with their directions anyway (the
@@ -302,9 +316,20 @@ impl Stepper<'_> {
     }
 
     /// The largest jerk for the next step, and what bounds it.
-    fn choose(&self) -> (f64, Limit) {
+    fn choose(&mut self) -> (f64, Limit) {
         let h = self.h;
         let (u, v, a) = (self.u, self.v, self.a);
+        let here = &self.track.pieces[self.k];
+        // Cruising where nothing can bind yet: the same step again.
+        if let Some((piece, until)) = self.cruise
+            && piece == self.k
+            && a == 0.0
+            && v == here.velocity
+            && u + v * h < until
+        {
+            return (0.0, here.velocity_limit);
+        }
+        self.cruise = None;
         // The caps of every piece this step may enter: the jerk and acceleration chosen hold
         // for the whole step, on whichever piece it ends.
         let mut p = self.track.pieces[self.k];
@@ -353,6 +378,10 @@ impl Stepper<'_> {
         // there (the speed carries over too: the junction's cap has it).
         let (mut a_path, mut j_path) = (p.acceleration, p.jerk);
         let mut reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
+        // Where the first junction beyond reach comes into it, and whether any junction could
+        // bind: what a cruise may skip.
+        let mut comes_into_reach = None;
+        let mut could_bind = false;
         #[allow(clippy::needless_range_loop)] // m indexes pieces, ends and caps alike
         for m in self.k..=last {
             if m > self.k && (pieces[m].acceleration < a_path || pieces[m].jerk < j_path) {
@@ -365,6 +394,7 @@ impl Stepper<'_> {
             // an eighth more room than stopping (jerk-limited braking to v0/3 from v0, or to
             // A²/2J), hence the margin: a junction must be seen before its braking begins.
             if at - u1 > 1.25 * reach {
+                comes_into_reach = Some(at - 1.25 * reach);
                 break;
             }
             let (cap, why) = if m == last && m + 1 < n { (0.0, Limit::LookAhead) } else { self.caps[m] };
@@ -378,6 +408,7 @@ impl Stepper<'_> {
                 }
                 continue;
             }
+            could_bind = true;
             // The room left at the junction once the speed is within its cap, from the state
             // after jerk `jj`.
             let slack = |jj: f64| {
@@ -403,6 +434,10 @@ impl Stepper<'_> {
             if stop {
                 break;
             }
+        }
+        if j == 0.0 && a == 0.0 && v == p.velocity && !could_bind {
+            let until = comes_into_reach.unwrap_or(f64::NEG_INFINITY).min(self.ends[self.k]) - v * h;
+            self.cruise = Some((self.k, until));
         }
         (j, limit)
     }
@@ -442,7 +477,7 @@ fn largest_fitting(slack: &dyn Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 
             }
             side = -1;
         }
-        if f.abs() <= 1e-12 {
+        if f == 0.0 {
             break;
         }
     }
