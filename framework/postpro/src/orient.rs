@@ -52,7 +52,7 @@ pub(crate) struct OrientArgs {
     #[arg(long, value_name = "OUT")]
     apply: Option<PathBuf>,
     /// With `--apply`: one set-up per path instead of one for the whole part.
-    #[arg(long)]
+    #[arg(long, requires = "apply")]
     per_path: bool,
 }
 
@@ -189,7 +189,9 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         }
     };
     let whole_cycle = if five_axis > 0 {
-        Err(format!("{five_axis} paths are 5-axis (their tool axis moves): one set-up cannot hold them"))
+        let (count, verb) =
+            if five_axis == 1 { ("1 path".to_string(), "is") } else { (format!("{five_axis} paths"), "are") };
+        Err(format!("{count} {verb} 5-axis (the tool axis moves): one set-up cannot hold them"))
     } else {
         cycle_of(whole_variant.as_ref())
     };
@@ -215,34 +217,17 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             all
         });
 
-    let text = if args.json {
-        json(
-            &job,
-            machine,
-            args,
-            level,
-            &reports,
-            &part,
-            part_best.as_ref(),
-            original_cycle,
-            &whole_cycle,
-            &per_path_cycle,
-            &notes,
-        )
-    } else {
-        table(
-            &job,
-            args,
-            level,
-            &reports,
-            &part,
-            part_best.as_ref(),
-            original_cycle,
-            &whole_cycle,
-            &per_path_cycle,
-            &notes,
-        )
+    let findings = Findings {
+        level,
+        reports: &reports,
+        part: &part,
+        part_best: part_best.as_ref(),
+        original: original_cycle,
+        whole: &whole_cycle,
+        per_path: &per_path_cycle,
+        notes: &notes,
     };
+    let text = if args.json { json(&job, machine, args, &findings) } else { table(&job, args, &findings) };
     let printed = report::print_stdout(&text);
 
     if let Some(out) = &args.apply {
@@ -250,7 +235,12 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         let (path, solved) = match chosen_variant {
             Some(Ok(Variant { path, solved, .. })) => (path, solved),
             Some(Err(e)) => return fail(&format!("error: nothing written: {e}\n"), 1),
-            None => return fail("error: nothing written: no set-up reaches a vertex within the cone\n", 1),
+            // No whole-part variant: the reason is the whole part's (5-axis paths, or no set-up
+            // within the cone).
+            None => {
+                let why = whole_cycle.err().unwrap_or_else(|| "no set-up reaches a vertex within the cone".into());
+                return fail(&format!("error: nothing written: {why}\n"), 1);
+            }
         };
         let Some(dialect) = postpro_emit::dialect(&machine.dialect) else {
             return fail(&format!("error: unknown dialect `{}`\n", machine.dialect), 1);
@@ -387,7 +377,8 @@ fn norms_text(r: &Reach) -> String {
 }
 
 fn vector(v: &Vector3<f64>) -> String {
-    format!("({:.3}, {:.3}, {:.3})", v.x, v.y, v.z)
+    let c = |x: f64| postpro_emit::number(x, 3, false);
+    format!("({}, {}, {})", c(v.x), c(v.y), c(v.z))
 }
 
 fn cycle_text(c: &Cycle, original: f64) -> String {
@@ -397,19 +388,20 @@ fn cycle_text(c: &Cycle, original: f64) -> String {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn table(
-    job: &Job,
-    args: &OrientArgs,
+/// What `orient` found, for the table and the JSON.
+struct Findings<'a> {
     level: Level,
-    reports: &[PathReport],
-    part: &postpro_orient::PartDirection,
-    part_best: Option<&Reach>,
+    reports: &'a [PathReport],
+    part: &'a postpro_orient::PartDirection,
+    part_best: Option<&'a Reach>,
     original: f64,
-    whole: &Cycle,
-    per_path: &Cycle,
-    notes: &[String],
-) -> String {
+    whole: &'a Cycle,
+    per_path: &'a Cycle,
+    notes: &'a [String],
+}
+
+fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
+    let Findings { level, reports, part, part_best, original, whole, per_path, notes } = *f;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -473,20 +465,8 @@ fn table(
     out
 }
 
-#[allow(clippy::too_many_arguments)]
-fn json(
-    job: &Job,
-    machine: &Machine,
-    args: &OrientArgs,
-    level: Level,
-    reports: &[PathReport],
-    part: &postpro_orient::PartDirection,
-    part_best: Option<&Reach>,
-    original: f64,
-    whole: &Cycle,
-    per_path: &Cycle,
-    notes: &[String],
-) -> String {
+fn json(job: &Job, machine: &Machine, args: &OrientArgs, f: &Findings<'_>) -> String {
+    let Findings { level, reports, part, part_best, original, whole, per_path, notes } = *f;
     use serde_json::{Value, json};
     let v3 = |v: &Vector3<f64>| json!([v.x, v.y, v.z]);
     let reach = |r: Option<&Reach>| -> Value {

@@ -25,12 +25,13 @@ use std::process::{Command, Stdio};
 
 /// Each bundled example on a machine where it solves. The Manta (600 mm) exceeds the travels
 /// of both built-ins; the nutating head-head example machine holds it.
-const CASES: [(&str, &str); 5] = [
+const CASES: [(&str, &str); 6] = [
     ("examples/cl/hypar-5axis.cl", "maho600e"),
     ("examples/cl/hypar-5axis.cl", "mikron-ucp710"),
     ("examples/cl/bicubic-5axis.cl", "maho600e"),
     ("examples/cl/bicubic-5axis.cl", "mikron-ucp710"),
     ("examples/cl/manta-5axis.cl", "example-head-head-nutating"),
+    ("examples/cl/hypar-3plus2.cl", "mikron-ucp710"),
 ];
 
 const MODES: [&str; 2] = ["g1", "inverse-time"];
