@@ -23,8 +23,11 @@
 //! - `POSTPRO_BENCH_SCALE` (default 1): the size of both programs relative to about 1 M blocks;
 //! - `POSTPRO_BENCH_WORKLOADS` (default `fine,coarse`): which programs to build and measure;
 //! - `POSTPRO_BENCH_WRITE_CL=DIR`: also write the two programs as `DIR/predict-fine.cl` and
-//!   `DIR/predict-coarse.cl`, for `postpro predict FILE --machine NAME --timing` on the same
-//!   input (the coarse one is also `postpro-examples big --size-mb 58`).
+//!   `DIR/predict-coarse.cl`, for `postpro predict FILE --machine NAME --mode inverse-time
+//!   --timing` on the same input (the coarse one is also `postpro-examples big --size-mb 58`).
+//!
+//! The setup also times one run of `predict` by the wall clock and by the time the thread spent
+//! on a CPU (Linux): on a loaded machine the latter is the better figure.
 
 use std::hint::black_box;
 use std::path::PathBuf;
