@@ -5,9 +5,12 @@
 //! rotary angles, the ball centre kept), the 5-axis example left as programmed, and the error
 //! cases (exit code and message pinned, nothing written).
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::OnceLock;
+
+use common::{files, number, postpro, repo, stderr, stdout};
 
 use serde_json::Value;
 
@@ -24,50 +27,13 @@ const A_TRAVEL: (f64, f64) = (-120.0, 30.0);
 /// The ball's radius (BALL_D16).
 const BALL_RADIUS: f64 = 8.0;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// Runs `postpro` in `dir`, so that relative paths (and the messages naming them) read as a
-/// user types them.
-fn postpro(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_postpro")).args(args).current_dir(dir).output().expect("postpro runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8(o.stdout.clone()).expect("stdout is UTF-8")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8(o.stderr.clone()).expect("stderr is UTF-8")
-}
-
-/// A fresh folder with a copy of both examples (kept after the test for a look after a failure).
+/// A fresh folder with a copy of the example(s).
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("orient").join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("a scratch folder");
-    std::fs::copy(repo().join(EXAMPLE), dir.join(CL)).expect("a copy of the example");
-    std::fs::copy(repo().join(FIVE_AXIS), dir.join(FIVE_AXIS_CL)).expect("a copy of the 5-axis example");
-    dir
-}
-
-/// The names in `dir`, sorted.
-fn files(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .expect("list")
-        .map(|e| e.expect("an entry").file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
+    common::scratch("orient", name, &[(EXAMPLE, CL), (FIVE_AXIS, FIVE_AXIS_CL)])
 }
 
 fn read(dir: &Path, name: &str) -> String {
     std::fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
-
-fn number(field: &str) -> f64 {
-    field.parse().unwrap_or_else(|_| panic!("`{field}` is a number"))
 }
 
 /// `x` to `decimals` as printed, so that a JSON figure can be compared with a printed one.
@@ -542,8 +508,7 @@ fn five_axis_paths_are_left_as_programmed_and_the_whole_part_is_not_applied() {
         assert!(number(angle) > 1.0, "`{row}`");
         assert_eq!(rest, ": left as programmed", "`{row}`");
     }
-    let whole =
-        "  one set-up, whole part   — (27 paths are 5-axis (the tool axis moves): one set-up cannot hold them)";
+    let whole = "  one set-up, whole part   — (27 paths are 5-axis (the tool axis moves): one set-up cannot hold them)";
     assert!(text.lines().any(|l| l == whole), "{text}");
     // Every path as programmed: the per-path program is the original.
     let original = seconds(&text, "  original set-up");

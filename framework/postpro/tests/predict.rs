@@ -3,51 +3,22 @@
 //! CSV, JSON, SVG) agreeing with it and with each other, the error cases (exit code and message
 //! pinned, no file written), and the slowdown comments and predicted cycle time of the NC program.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::OnceLock;
+
+use common::{files, number, postpro, repo, stderr, stdout};
 
 const EXAMPLE: &str = "examples/cl/hypar-5axis.cl";
 /// The example's file name, as it is called inside a scratch folder.
 const CL: &str = "hypar-5axis.cl";
 const MACHINE: &str = "mikron";
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// Runs `postpro` in `dir`, so that relative paths (and the messages naming them) read as a
-/// user types them.
-fn postpro(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_postpro")).args(args).current_dir(dir).output().expect("postpro runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8(o.stdout.clone()).expect("stdout is UTF-8")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8(o.stderr.clone()).expect("stderr is UTF-8")
-}
-
-/// A fresh folder with a copy of the example (kept after the test for a look after a failure).
+/// A fresh folder with a copy of the example(s).
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("predict").join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("a scratch folder");
-    std::fs::copy(repo().join(EXAMPLE), dir.join(CL)).expect("a copy of the example");
-    dir
-}
-
-/// The names in `dir`, sorted.
-fn files(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .expect("list")
-        .map(|e| e.expect("an entry").file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
+    common::scratch("predict", name, &[(EXAMPLE, CL)])
 }
 
 // ----- The table --------------------------------------------------------------------------------
@@ -96,10 +67,6 @@ fn columns(row: &str) -> Vec<String> {
     fields.push(limit);
     assert_eq!(fields.len(), 9, "a block row has 9 columns: `{row}`");
     fields
-}
-
-fn number(field: &str) -> f64 {
-    field.parse().unwrap_or_else(|_| panic!("`{field}` is a number"))
 }
 
 #[test]
