@@ -93,6 +93,8 @@ struct Variant {
     path: ToolPath,
     solved: Solved,
     cycle: f64,
+    /// The predicted time of each path (s).
+    path_times: Vec<f64>,
     applied: postpro_orient::Applied,
 }
 
@@ -124,7 +126,8 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         return fail(&format!("error: {} has no feed path to orient\n", job.source.name()), 1);
     }
     let mode = args.mode.mode();
-    let original_cycle = predict::run(&job, mode, &args.prediction, false).totals().cycle_time;
+    let original_prediction = predict::run(&job, mode, &args.prediction, false);
+    let original_cycle = original_prediction.totals().cycle_time;
 
     // Per path: the program's tool axis, the set-up it was solved in, and the best candidate:
     // the largest norm, and among equals the one nearest the previous path's set-up (the
@@ -172,12 +175,15 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             axis: (r.axis_spread <= FIVE_AXIS_DEG).then(|| r.best.as_ref().map_or(r.reference, |b| b.tool_axis)),
         })
         .collect();
+    let spans: Vec<(usize, usize)> = reports.iter().map(|r| (r.path.span.start as usize, r.path.span.end())).collect();
+    let original_times = path_times(&original_prediction, &job.solved, &spans);
     let variant = |setups: &[Setup]| -> Result<Variant, String> {
         let applied = postpro_orient::apply(&job.path, setups);
         let solved = postpro_kin::solve(kin, &applied.path, &machine.policy)
             .map_err(|e| format!("the re-oriented program does not solve: {e}"))?;
-        let cycle = predict::run_solved(&applied.path, &solved, kin, mode, &args.prediction).totals().cycle_time;
-        Ok(Variant { path: applied.path.clone(), solved, cycle, applied })
+        let prediction = predict::run_solved(&applied.path, &solved, kin, mode, &args.prediction);
+        let path_times = path_times(&prediction, &solved, &spans);
+        Ok(Variant { path: applied.path.clone(), solved, cycle: prediction.totals().cycle_time, path_times, applied })
     };
     let whole_variant = whole.as_deref().map(variant);
     let per_path_variant = variant(&per_path);
@@ -219,6 +225,8 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
 
     let findings = Findings {
         level,
+        original_times: &original_times,
+        best_times: per_path_variant.as_ref().ok().map(|v| v.path_times.as_slice()),
         reports: &reports,
         part: &part,
         part_best: part_best.as_ref(),
@@ -291,6 +299,21 @@ fn nearest_of_the_best(
         .filter(|c| c.norm(level) >= best * (1.0 - 1e-6))
         .min_by(|a, b| distance(a).total_cmp(&distance(b)))
         .copied()
+}
+
+/// The predicted time of each path (`spans`: its byte range in the CL file): the time of the
+/// blocks that end on one of its steps.
+fn path_times(prediction: &postpro_predict::Prediction, solved: &Solved, spans: &[(usize, usize)]) -> Vec<f64> {
+    let mut times = vec![0.0; spans.len()];
+    for b in &prediction.blocks {
+        let at = solved.steps[b.step].span.start as usize;
+        // The paths are in file order: the last one starting at or before `at`.
+        let i = spans.partition_point(|&(start, _)| start <= at);
+        if i > 0 && at < spans[i - 1].1 {
+            times[i - 1] += b.time;
+        }
+    }
+    times
 }
 
 /// A path whose tool axes spread wider than this (degrees) is 5-axis.
@@ -391,6 +414,10 @@ fn cycle_text(c: &Cycle, original: f64) -> String {
 /// What `orient` found, for the table and the JSON.
 struct Findings<'a> {
     level: Level,
+    /// Each path's predicted time in the original set-up (s).
+    original_times: &'a [f64],
+    /// Each path's predicted time with one set-up per path (s), when that program solves.
+    best_times: Option<&'a [f64]>,
     reports: &'a [PathReport],
     part: &'a postpro_orient::PartDirection,
     part_best: Option<&'a Reach>,
@@ -401,7 +428,7 @@ struct Findings<'a> {
 }
 
 fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
-    let Findings { level, reports, part, part_best, original, whole, per_path, notes } = *f;
+    let Findings { level, reports, part, part_best, original, whole, per_path, notes, .. } = *f;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -436,7 +463,7 @@ fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
     let _ = writeln!(out, "  one set-up per path      {}", cycle_text(per_path, original));
     let _ = writeln!(
         out,
-        "\n path   line  length mm  feed direction              original set-up / reach (jerk m/s³, acc m/s², vel m/s)   best set-up / reach"
+        "\n path   line  length mm  feed direction              time s (per path)    original set-up / reach (jerk m/s³, acc m/s², vel m/s)   best set-up / reach"
     );
     for (i, r) in reports.iter().enumerate() {
         let original =
@@ -448,13 +475,18 @@ fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
             }
             None => "none within the cone".to_string(),
         };
+        let times = match f.best_times.and_then(|t| t.get(i)) {
+            Some(best) if r.best.is_some() => format!("{:>7.3} → {:>7.3}", f.original_times[i], best),
+            _ => format!("{:>7.3}", f.original_times[i]),
+        };
         let _ = writeln!(
             out,
-            "{:>5} {:>6} {:>10.1}  {:<26}  {:<56}  {}",
+            "{:>5} {:>6} {:>10.1}  {:<26}  {:<19}  {:<56}  {}",
             i + 1,
             r.line,
             r.path.length,
             vector(&r.path.axis),
+            times,
             original,
             best
         );
@@ -466,7 +498,7 @@ fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
 }
 
 fn json(job: &Job, machine: &Machine, args: &OrientArgs, f: &Findings<'_>) -> String {
-    let Findings { level, reports, part, part_best, original, whole, per_path, notes } = *f;
+    let Findings { level, reports, part, part_best, original, whole, per_path, notes, .. } = *f;
     use serde_json::{Value, json};
     let v3 = |v: &Vector3<f64>| json!([v.x, v.y, v.z]);
     let reach = |r: Option<&Reach>| -> Value {
@@ -491,6 +523,7 @@ fn json(job: &Job, machine: &Machine, args: &OrientArgs, f: &Findings<'_>) -> St
                 "direction": v3(&r.path.axis), "straightness": r.path.straightness,
                 "program_tool_axis": v3(&r.reference), "tool_axis_spread_deg": r.axis_spread,
                 "original": reach(r.original.as_ref()), "best": reach(r.best.as_ref()),
+                "time_s": { "original": f.original_times[i], "per_path_set_up": f.best_times.and_then(|t| t.get(i)) },
             })
         })
         .collect();

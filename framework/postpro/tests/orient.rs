@@ -66,6 +66,8 @@ struct Row {
     line: usize,
     length: f64,
     direction: [f64; 3],
+    /// The path's predicted time in the original set-up and in its own (s).
+    times: [f64; 2],
     original: Reach,
     best: Reach,
 }
@@ -126,13 +128,18 @@ fn table(text: &str) -> Table {
             let head: Vec<&str> = head.split_whitespace().collect();
             assert_eq!(head.len(), 3, "path, line, length: `{row}`");
             let direction: Vec<f64> = direction.split(", ").map(number).collect();
-            let t = tokens(rest);
+            // The path's time, original → with its own set-up, then the two set-ups.
+            let (times, rest) = rest.trim_start().split_once("    A").expect("the times");
+            let times: Vec<f64> = times.split(" → ").map(|t| number(t.trim())).collect();
+            assert_eq!(times.len(), 2, "original and per-path time: `{row}`");
+            let t = tokens(&format!("A{rest}"));
             assert_eq!(t.len(), 14, "the original and the best set-up: `{row}`");
             Row {
                 path: number(head[0]) as usize,
                 line: number(head[1]) as usize,
                 length: number(head[2]),
                 direction: [direction[0], direction[1], direction[2]],
+                times: [times[0], times[1]],
                 original: reach(&t[..7]),
                 best: reach(&t[7..]),
             }
@@ -197,6 +204,8 @@ fn the_table_points_every_ruling_and_the_whole_part_at_a_jerk_vertex() {
         assert!((7.0..=7.4).contains(&r.original.jerk), "the programmed set-up reaches 7.1–7.3 m/s³: {r:?}");
         assert_eq!((r.original.a, r.original.c), (0.0, 0.0), "programmed with the tool along +z: {r:?}");
         assert!((A_TRAVEL.0..=A_TRAVEL.1).contains(&r.best.a), "A within its travel: {r:?}");
+        // A single jerk-limited pass is faster with more jerk: its own set-up beats the original.
+        assert!(r.times[1] < r.times[0], "the path is faster at its vertex: {r:?}");
     }
     assert!(t.rows.windows(2).all(|w| w[0].line < w[1].line), "the paths follow the CL file");
     // The zig-zag: the rulings alternate in sense; the longest is the diagonal, in the middle.
