@@ -72,8 +72,11 @@ pub struct Candidate {
     pub acceleration: f64,
     /// The largest tangential jerk along the feed (mm/s³).
     pub jerk: f64,
-    /// `|J v̂ − d|`, the forward kinematics' check of the alignment.
+    /// `|J v̂ − d|`, the forward kinematics' check of the alignment (0 for [`best_in_cone`]'s
+    /// set-ups, which point at no vertex).
     pub alignment_error: f64,
+    /// True when the feed points at a vertex; false for [`best_in_cone`]'s fallback.
+    pub at_vertex: bool,
 }
 
 impl Candidate {
@@ -155,6 +158,7 @@ pub fn candidates(
                     acceleration: norm(Level::Acceleration),
                     jerk: norm(Level::Jerk),
                     alignment_error,
+                    at_vertex: true,
                 });
             }
         }
@@ -174,6 +178,106 @@ pub fn candidates(
             .then(a.branch.cmp(&b.branch))
     });
     Ok(out)
+}
+
+/// When no set-up points `d` at a vertex within the travels and the cone: the set-up within them
+/// whose `options.level` norm along `d` is the largest (paper 004 eq. 13), by a search over the
+/// rotary axes (3° steps over their travels, then two finer passes around the best); among
+/// set-ups within a thousandth of the best, the one nearest `near` (the previous path's: the
+/// rotary axes move least; the home position when `None`). `None` when no rotary angle puts
+/// the tool axis within the cone.
+pub fn best_in_cone(
+    kin: &dyn Kinematics,
+    boxes: &JointBoxes,
+    d: &Vector3<f64>,
+    options: &Options,
+    near: Option<&Joints>,
+) -> Result<Option<Candidate>, OrientError> {
+    let d = direction("feed direction", d)?;
+    let reference = direction("reference axis", &options.reference_axis)?;
+    if !(0.0..=180.0).contains(&options.cone_half_angle_deg) {
+        return Err(OrientError::Cone(options.cone_half_angle_deg));
+    }
+    let cone = options.cone_half_angle_deg.to_radians();
+    let machine = kin.machine();
+    let rotary: Vec<usize> = machine.chain.part.iter().chain(&machine.chain.tool).copied().collect();
+    let range = |i: usize| match machine.axes[i].travel {
+        Travel::Limited { min, max } => (min.max(-std::f64::consts::PI * 4.0), max.min(std::f64::consts::PI * 4.0)),
+        Travel::Endless => (-std::f64::consts::PI, std::f64::consts::PI),
+    };
+    let evaluate = |joints: &Joints| -> Result<Option<Candidate>, OrientError> {
+        let tool_axis = kin.forward(joints).axis;
+        let tilt = tool_axis.dot(&reference).clamp(-1.0, 1.0).acos();
+        if tilt > cone + 1e-12 {
+            return Ok(None);
+        }
+        let map = JointMap::at(kin, boxes, joints)?;
+        let norm = |level| boxes.polytope(level, &map).norm_along(&d);
+        Ok(Some(Candidate {
+            joints: *joints,
+            vertex: [0, 0, 0],
+            vertex_index: usize::MAX,
+            branch: 0,
+            tool_axis,
+            tilt,
+            velocity: norm(Level::Velocity),
+            acceleration: norm(Level::Acceleration),
+            jerk: norm(Level::Jerk),
+            alignment_error: 0.0,
+            at_vertex: false,
+        }))
+    };
+    // Nearest `near`, or the machine's home (all rotary axes at 0) when there is none.
+    let home = Joints::zeros(machine.axes.len());
+    let near = near.unwrap_or(&home);
+    let distance = |c: &Candidate| -> f64 { rotary.iter().map(|&i| (c.joints[i] - near[i]).abs()).sum() };
+    let better = |a: &Candidate, b: &Candidate| {
+        let (x, y) = (a.norm(options.level), b.norm(options.level));
+        x > y * (1.0 + 1e-3) || (x >= y * (1.0 - 1e-3) && distance(a) < distance(b))
+    };
+    let mut best: Option<Candidate> = None;
+    // A grid over the rotary axes (at most two are searched; others stay at 0).
+    let search = |centre: Option<&Joints>, step: f64, best: &mut Option<Candidate>| -> Result<(), OrientError> {
+        let axes: Vec<(usize, Vec<f64>)> = rotary
+            .iter()
+            .take(2)
+            .map(|&i| {
+                let (lo, hi) = range(i);
+                let (lo, hi) = match centre {
+                    Some(c) => ((c[i] - 5.0 * step).max(lo), (c[i] + 5.0 * step).min(hi)),
+                    None => (lo, hi),
+                };
+                let n = ((hi - lo) / step).floor() as usize;
+                (i, (0..=n).map(|k| lo + step * k as f64).collect())
+            })
+            .collect();
+        let base = centre.copied().unwrap_or_else(|| Joints::zeros(machine.axes.len()));
+        let first = axes.first().map_or(vec![0.0], |a| a.1.clone());
+        let second = axes.get(1).map_or(vec![0.0], |a| a.1.clone());
+        for &x in &first {
+            for &y in &second {
+                let mut joints = base;
+                if let Some((i, _)) = axes.first() {
+                    joints[*i] = x;
+                }
+                if let Some((i, _)) = axes.get(1) {
+                    joints[*i] = y;
+                }
+                if let Some(c) = evaluate(&joints)?
+                    && best.as_ref().is_none_or(|b| better(&c, b))
+                {
+                    *best = Some(c);
+                }
+            }
+        }
+        Ok(())
+    };
+    search(None, 3f64.to_radians(), &mut best)?;
+    for step in [0.5f64, 0.1] {
+        let Some(centre) = best.as_ref().map(|b| b.joints) else { break };
+        search(Some(&centre), step.to_radians(), &mut best)?;
+    }
+    Ok(best)
 }
 
 /// A unit vector, or the error naming what it should have been.
@@ -274,6 +378,34 @@ mod tests {
     use std::f64::consts::PI;
 
     use super::*;
+
+    #[test]
+    fn without_a_vertex_in_the_cone_the_best_set_up_within_it() {
+        let registry = postpro_machine::Registry::builtin().expect("built-ins");
+        let mikron = &registry.find("mikron").expect("mikron").machine;
+        let kin = postpro_kin::solver_for(mikron);
+        let boxes = JointBoxes::new(mikron).expect("boxes");
+        // A horizontal feed along a hypar ruling: a vertex needs 35° of tilt; the cone allows 30°.
+        let d = Vector3::new(1.0, 1.0, 0.0);
+        let options = Options { cone_half_angle_deg: 30.0, ..Options::default() };
+        assert!(candidates(kin.as_ref(), &boxes, &d, &options).expect("candidates").is_empty());
+        let best = best_in_cone(kin.as_ref(), &boxes, &d, &options, None).expect("search").expect("a set-up");
+        assert!(!best.at_vertex && best.tilt <= 30f64.to_radians() + 1e-9);
+        // Better than the edge (5·√2) at the top, below the vertex (5·√3), and no 1° grid point
+        // within the cone does better.
+        assert!(best.jerk > 5000.0 * 2f64.sqrt() && best.jerk < 5000.0 * 3f64.sqrt(), "{}", best.jerk);
+        let unit = Unit::new_normalize(d);
+        for a in -30..=0 {
+            for c in -180..180 {
+                let mut joints = Joints::zeros(mikron.axes.len());
+                joints[3] = f64::from(a).to_radians();
+                joints[4] = f64::from(c).to_radians();
+                let map = JointMap::at(kin.as_ref(), &boxes, &joints).expect("map");
+                let jerk = boxes.polytope(Level::Jerk, &map).norm_along(&unit);
+                assert!(jerk <= best.jerk * (1.0 + 1e-3), "A {a}° C {c}°: {jerk} > {}", best.jerk);
+            }
+        }
+    }
 
     #[test]
     fn angles_fit_into_travels_at_the_turn_nearest_zero() {

@@ -72,6 +72,8 @@ struct Reach {
     norms: [f64; 3],
     /// Tool axis in the part frame.
     tool_axis: Unit<Vector3<f64>>,
+    /// The feed points at a vertex (false: the best within the cone, paper 004 eq. 13).
+    at_vertex: bool,
 }
 
 /// One path's figures.
@@ -143,7 +145,17 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         let best = match postpro_orient::candidates(kin, &boxes, &path.axis, &options) {
             // A path whose tool axis moves is 5-axis: it is not re-oriented.
             Ok(_) if axis_spread > FIVE_AXIS_DEG => None,
-            Ok(found) => nearest_of_the_best(&found, level, previous.or(original_at).as_ref(), machine),
+            Ok(found) if !found.is_empty() => {
+                nearest_of_the_best(&found, level, previous.or(original_at).as_ref(), machine)
+            }
+            // No vertex within the travels and the cone: the best set-up there (eq. 13).
+            Ok(_) => {
+                match postpro_orient::best_in_cone(kin, &boxes, &path.axis, &options, previous.or(original_at).as_ref())
+                {
+                    Ok(best) => best,
+                    Err(e) => return fail(&report::render(&e), 1),
+                }
+            }
             Err(e) => return fail(&report::render(&e), 1),
         };
         if let Some(c) = &best {
@@ -158,7 +170,11 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
     let part_options =
         postpro_orient::Options { level, reference_axis: part_reference, cone_half_angle_deg: args.cone };
     let part_best = match postpro_orient::candidates(kin, &boxes, &part.axis, &part_options) {
-        Ok(found) => found.first().map(|c| reach_of(machine, c)),
+        Ok(found) if !found.is_empty() => found.first().map(|c| reach_of(machine, c)),
+        Ok(_) => match postpro_orient::best_in_cone(kin, &boxes, &part.axis, &part_options, None) {
+            Ok(best) => best.map(|c| reach_of(machine, &c)),
+            Err(e) => return fail(&report::render(&e), 1),
+        },
         Err(e) => return fail(&report::render(&e), 1),
     };
 
@@ -370,7 +386,12 @@ fn reach_at(
 ) -> Option<Reach> {
     let map = JointMap::at(kin, boxes, joints).ok()?;
     let norms = Level::ALL.map(|level| boxes.polytope(level, &map).norm_along(d));
-    Some(Reach { angles: rotary_angles(kin.machine(), joints), norms, tool_axis: kin.forward(joints).axis })
+    Some(Reach {
+        angles: rotary_angles(kin.machine(), joints),
+        norms,
+        tool_axis: kin.forward(joints).axis,
+        at_vertex: false,
+    })
 }
 
 fn reach_of(machine: &Machine, c: &Candidate) -> Reach {
@@ -378,6 +399,7 @@ fn reach_of(machine: &Machine, c: &Candidate) -> Reach {
         angles: rotary_angles(machine, &c.joints),
         norms: [c.velocity, c.acceleration, c.jerk],
         tool_axis: c.tool_axis,
+        at_vertex: c.at_vertex,
     }
 }
 
@@ -445,16 +467,17 @@ fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
         Some(b) => {
             let _ = writeln!(
                 out,
-                "  set-up {}   jerk {:.2} m/s³, acceleration {:.2} m/s², velocity {:.3} m/s; tool axis {}",
+                "  set-up {}   jerk {:.2} m/s³, acceleration {:.2} m/s², velocity {:.3} m/s; tool axis {}{}",
                 angles_text(b),
                 b.norms[2] / 1000.0,
                 b.norms[1] / 1000.0,
                 b.norms[0] / 1000.0,
-                vector(&b.tool_axis)
+                vector(&b.tool_axis),
+                if b.at_vertex { "" } else { " (no vertex in the cone: the best within it)" }
             );
         }
         None => {
-            let _ = writeln!(out, "  no set-up points it at a vertex within the travels and the cone");
+            let _ = writeln!(out, "  no set-up puts the tool axis within the cone");
         }
     }
     let _ = writeln!(out, "\npredicted cycle time ({} mode)", args.mode.mode().name());
@@ -469,7 +492,12 @@ fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
         let original =
             r.original.as_ref().map_or_else(|| "—".to_string(), |o| format!("{} {}", angles_text(o), norms_text(o)));
         let best = match &r.best {
-            Some(b) => format!("{} {}", angles_text(b), norms_text(b)),
+            Some(b) => format!(
+                "{} {}{}",
+                angles_text(b),
+                norms_text(b),
+                if b.at_vertex { "" } else { "  (no vertex in the cone)" }
+            ),
             None if r.axis_spread > FIVE_AXIS_DEG => {
                 format!("5-axis (tool axis moves {:.1}°): left as programmed", r.axis_spread)
             }
@@ -506,7 +534,7 @@ fn json(job: &Job, machine: &Machine, args: &OrientArgs, f: &Findings<'_>) -> St
             json!({
                 "angles_deg": r.angles.iter().map(|(l, v)| (l.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
                 "jerk_mm_s3": r.norms[2], "acceleration_mm_s2": r.norms[1], "velocity_mm_s": r.norms[0],
-                "tool_axis": v3(&r.tool_axis),
+                "tool_axis": v3(&r.tool_axis), "at_vertex": r.at_vertex,
             })
         })
     };
