@@ -15,65 +15,45 @@
 use crate::block::{Limiter, block_limits};
 use crate::corner::junction_cap;
 use crate::moves::{BlockKind, Blocks};
-use crate::plan::{Junction, Limit, Piece, Track};
+use crate::plan::{Limit, Piece, Track, TrackBuilder};
 use postpro_machine::model::Machine;
 
 /// The track of `blocks` on `machine`, and for each piece the block it stands for (blocks of
 /// no duration have no piece).
 pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
-    let cnc = &machine.cnc;
     let mut delta = vec![0.0; blocks.axes];
-    let mut next_delta = vec![0.0; blocks.axes];
-    let mut pieces = Vec::with_capacity(blocks.len());
-    let mut junctions: Vec<Junction> = Vec::with_capacity(blocks.len());
-    let mut owner = Vec::with_capacity(blocks.len());
-    let mut dwell_at_start = 0.0;
-    let mut pending_stop = false;
-    let mut pending_dwell = 0.0;
+    let mut previous_delta = vec![0.0; blocks.axes];
+    let mut track = TrackBuilder::with_capacity(blocks.len());
     for i in 0..blocks.len() {
-        pending_stop |= blocks.stop_before[i];
-        pending_dwell += blocks.dwell_before[i];
+        track.before(blocks.stop_before[i], blocks.dwell_before[i]);
         let nominal = blocks.nominal[i];
         if nominal <= 0.0 {
             continue; // nothing moves
         }
         blocks.delta(i, &mut delta);
         let piece = piece(blocks, machine, i, &delta, nominal);
-        if let Some(last) = junctions.last_mut() {
-            if pending_stop {
-                *last = Junction { cap: 0.0, limit: Limit::Stop, dwell: pending_dwell };
-            } else {
-                let previous = owner[owner.len() - 1];
-                blocks.delta(previous, &mut next_delta);
+        let corner = match track.last_block() {
+            Some(previous) if !track.stop_pending() => {
+                blocks.delta(previous, &mut previous_delta);
                 // In programmed time a block's axis rates are ΔP / T and its tip covers its
                 // nominal tip feed per unit.
                 let tip = blocks.nominal_tip_feed(previous).max(blocks.nominal_tip_feed(i));
-                let cap = junction_cap(
+                junction_cap(
                     machine,
                     &blocks.direction(previous),
                     &blocks.direction(i),
                     tip,
-                    (&next_delta, blocks.nominal[previous]),
+                    (&previous_delta, blocks.nominal[previous]),
                     (&delta, nominal),
-                );
-                *last = Junction { cap, limit: Limit::Corner, dwell: 0.0 };
+                )
             }
-        } else {
-            dwell_at_start = pending_dwell;
-        }
-        pending_stop = false;
-        pending_dwell = 0.0;
-        pieces.push(piece);
-        junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
-        owner.push(i);
-    }
-    if let Some(last) = junctions.last_mut() {
-        last.dwell = pending_dwell;
+            _ => f64::INFINITY,
+        };
+        track.push(piece, i, corner);
     }
     // Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
     // N + 10 is taken into account": the current block and `look_ahead` more.
-    let window = cnc.look_ahead.saturating_add(1);
-    (Track { pieces, junctions, window, dwell_at_start }, owner)
+    track.finish(machine.cnc.look_ahead.saturating_add(1))
 }
 
 /// The caps of block `i`, in programmed time.

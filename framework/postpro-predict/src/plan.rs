@@ -104,6 +104,86 @@ impl Track {
     }
 }
 
+/// Builds a [`Track`] piece by piece for the planners: what stands between two pieces (an exact
+/// stop and its dwell, or a corner's cap), and the block each piece stands for.
+#[derive(Debug, Default)]
+pub struct TrackBuilder {
+    pieces: Vec<Piece>,
+    junctions: Vec<Junction>,
+    owner: Vec<usize>,
+    stop_pending: bool,
+    dwell_pending: f64,
+    dwell_at_start: f64,
+}
+
+impl TrackBuilder {
+    /// Room for `n` pieces.
+    pub fn with_capacity(n: usize) -> TrackBuilder {
+        TrackBuilder {
+            pieces: Vec::with_capacity(n),
+            junctions: Vec::with_capacity(n),
+            owner: Vec::with_capacity(n),
+            ..TrackBuilder::default()
+        }
+    }
+
+    /// Notes what stands before the next piece: an exact stop, a dwell (s).
+    pub fn before(&mut self, stop: bool, dwell: f64) {
+        self.stop_pending |= stop;
+        self.dwell_pending += dwell;
+    }
+
+    /// True when the next piece follows an exact stop (its corner cap is not needed).
+    pub fn stop_pending(&self) -> bool {
+        self.stop_pending
+    }
+
+    /// The block of the last piece.
+    pub fn last_block(&self) -> Option<usize> {
+        self.owner.last().copied()
+    }
+
+    /// Pieces so far.
+    pub fn len(&self) -> usize {
+        self.pieces.len()
+    }
+
+    /// True before the first piece.
+    pub fn is_empty(&self) -> bool {
+        self.pieces.is_empty()
+    }
+
+    /// Adds `piece` for `block`; the junction before it is an exact stop when one is pending,
+    /// else a corner capped at `corner`.
+    pub fn push(&mut self, piece: Piece, block: usize, corner: f64) {
+        if let Some(last) = self.junctions.last_mut() {
+            *last = if self.stop_pending {
+                Junction { cap: 0.0, limit: Limit::Stop, dwell: self.dwell_pending }
+            } else {
+                Junction { cap: corner, limit: Limit::Corner, dwell: 0.0 }
+            };
+        } else {
+            self.dwell_at_start = self.dwell_pending;
+        }
+        self.stop_pending = false;
+        self.dwell_pending = 0.0;
+        self.pieces.push(piece);
+        self.junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
+        self.owner.push(block);
+    }
+
+    /// The track seeing `window` pieces ahead, and the block of each piece; a dwell after the
+    /// last piece is spent at its end.
+    pub fn finish(mut self, window: usize) -> (Track, Vec<usize>) {
+        if let Some(last) = self.junctions.last_mut() {
+            last.dwell = self.dwell_pending;
+        }
+        let track =
+            Track { pieces: self.pieces, junctions: self.junctions, window, dwell_at_start: self.dwell_at_start };
+        (track, self.owner)
+    }
+}
+
 /// One interpolation step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {

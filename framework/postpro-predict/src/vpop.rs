@@ -19,7 +19,7 @@
 //! path is seen ahead.
 
 use crate::moves::{BlockKind, Blocks};
-use crate::plan::{Junction, Limit, Piece, Track};
+use crate::plan::{Limit, Piece, Track, TrackBuilder};
 use postpro_kin::Kinematics;
 use postpro_kin::bspline::{self, Spline};
 use postpro_machine::model::Machine;
@@ -57,7 +57,7 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
     for i in 0..blocks.len() {
         b.line(i);
     }
-    b.finish()
+    b.track.finish(usize::MAX)
 }
 
 /// The VPOp track of the B-spline program: each run of feed moves at one feed (between items
@@ -71,7 +71,7 @@ pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -
         let feed_move = |k: usize| matches!(blocks.kind[k], BlockKind::Feed | BlockKind::Reorientation);
         if !feed_move(i) {
             b.line(i);
-            curves.segments.resize(b.pieces.len(), Segment::Line);
+            curves.segments.resize(b.track.len(), Segment::Line);
             i += 1;
             continue;
         }
@@ -89,22 +89,17 @@ pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -
                 b.line(k);
             }
         }
-        curves.segments.resize(b.pieces.len(), Segment::Line);
+        curves.segments.resize(b.track.len(), Segment::Line);
         i = end;
     }
-    let (track, owner) = b.finish();
+    let (track, owner) = b.track.finish(usize::MAX);
     (track, owner, curves)
 }
 
 struct Builder<'a> {
     blocks: &'a Blocks,
     machine: &'a Machine,
-    pieces: Vec<Piece>,
-    junctions: Vec<Junction>,
-    owner: Vec<usize>,
-    pending_stop: bool,
-    pending_dwell: f64,
-    dwell_at_start: f64,
+    track: TrackBuilder,
     /// The last feed seen (mm/s): the pace of a block that only turns the tool.
     reference_feed: f64,
     delta: Vec<f64>,
@@ -119,12 +114,7 @@ impl<'a> Builder<'a> {
         Builder {
             blocks,
             machine,
-            pieces: Vec::with_capacity(blocks.len()),
-            junctions: Vec::with_capacity(blocks.len()),
-            owner: Vec::with_capacity(blocks.len()),
-            pending_stop: false,
-            pending_dwell: 0.0,
-            dwell_at_start: 0.0,
+            track: TrackBuilder::with_capacity(blocks.len()),
             reference_feed: cnc.feed_max / 60.0,
             delta: vec![0.0; blocks.axes],
             other: vec![0.0; blocks.axes],
@@ -173,8 +163,7 @@ impl<'a> Builder<'a> {
     /// Block `i` as one straight piece.
     fn line(&mut self, i: usize) {
         let blocks = self.blocks;
-        self.pending_stop |= blocks.stop_before[i];
-        self.pending_dwell += blocks.dwell_before[i];
+        self.track.before(blocks.stop_before[i], blocks.dwell_before[i]);
         if blocks.nominal[i] <= 0.0 {
             return;
         }
@@ -185,7 +174,7 @@ impl<'a> Builder<'a> {
         let length = if blocks.length[i] > 1e-9 { blocks.length[i] } else { blocks.nominal[i] * self.reference_feed };
         let piece = self.line_piece(i, length);
         let corner = match self.last_line {
-            Some((previous, previous_length)) if self.owner.last() == Some(&previous) => {
+            Some((previous, previous_length)) if self.track.last_block() == Some(previous) => {
                 blocks.delta(previous, &mut self.other);
                 // On the tip path a block's tip covers L / ℓ mm per unit (1 unless it only turns).
                 let tip = (blocks.length[previous] / previous_length).max(blocks.length[i] / length);
@@ -201,26 +190,8 @@ impl<'a> Builder<'a> {
             // After a curve: the tip's direction changes within the tolerance's rounding.
             _ => f64::INFINITY,
         };
-        self.push(piece, i, corner);
+        self.track.push(piece, i, corner);
         self.last_line = Some((i, length));
-    }
-
-    /// Adds `piece` for `block`, the junction before it capped at `corner` (or a stop).
-    fn push(&mut self, piece: Piece, block: usize, corner: f64) {
-        if let Some(last) = self.junctions.last_mut() {
-            *last = if self.pending_stop {
-                Junction { cap: 0.0, limit: Limit::Stop, dwell: self.pending_dwell }
-            } else {
-                Junction { cap: corner, limit: Limit::Corner, dwell: 0.0 }
-            };
-        } else {
-            self.dwell_at_start = self.pending_dwell;
-        }
-        self.pending_stop = false;
-        self.pending_dwell = 0.0;
-        self.pieces.push(piece);
-        self.junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
-        self.owner.push(block);
     }
 
     /// The blocks of `run` as the spline through their CL points; false when the emitter would
@@ -244,8 +215,7 @@ impl<'a> Builder<'a> {
             return false;
         };
         for b in run.clone() {
-            self.pending_stop |= blocks.stop_before[b] && b == start;
-            self.pending_dwell += blocks.dwell_before[b];
+            self.track.before(blocks.stop_before[b] && b == start, blocks.dwell_before[b]);
         }
         let feed = blocks.feed[start];
         if blocks.kind[start] == BlockKind::Feed {
@@ -254,7 +224,7 @@ impl<'a> Builder<'a> {
         let params = bspline::chord_params(&poses);
         let which = curves.splines.len();
         let mut corner = match self.last_line {
-            Some((previous, _)) if self.owner.last() == Some(&previous) => {
+            Some((previous, _)) if self.track.last_block() == Some(previous) => {
                 let tangent = poses.get(1).map_or(nalgebra::Vector3::zeros(), |p| p.tip - poses[0].tip);
                 crate::corner::corner_speed(
                     &blocks.direction(previous),
@@ -284,8 +254,8 @@ impl<'a> Builder<'a> {
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
                 let piece = self.curve_piece(&spline, kin, from, to, feed);
-                self.push(piece, block, corner);
-                curves.segments.resize(self.pieces.len() - 1, Segment::Line);
+                self.track.push(piece, block, corner);
+                curves.segments.resize(self.track.len() - 1, Segment::Line);
                 curves.segments.push(Segment::Curve { spline: which, from });
                 corner = f64::INFINITY;
             }
@@ -374,21 +344,6 @@ impl<'a> Builder<'a> {
             tighten(&mut piece.jerk, &mut piece.jerk_limit, j_cap, Limit::Jerk(index));
         }
         finite(piece)
-    }
-
-    fn finish(mut self) -> (Track, Vec<usize>) {
-        if let Some(last) = self.junctions.last_mut() {
-            last.dwell = self.pending_dwell;
-        }
-        (
-            Track {
-                pieces: self.pieces,
-                junctions: self.junctions,
-                window: usize::MAX,
-                dwell_at_start: self.dwell_at_start,
-            },
-            self.owner,
-        )
     }
 }
 
