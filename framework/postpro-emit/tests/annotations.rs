@@ -227,16 +227,7 @@ fn spline_of(lines: &[&str], back: &ReadBack, letters: &[String], open: usize, c
             pls.push(pl.parse::<f64>().expect("PL"));
         }
     }
-    let spans = &pls[1..pls.len() - 1];
-    let total: f64 = spans.iter().sum();
-    let mut knots = vec![0.0; DEGREE + 1];
-    let mut t = 0.0;
-    for s in &spans[..spans.len() - 1] {
-        t += s;
-        knots.push(t);
-    }
-    knots.extend(std::iter::repeat_n(total, DEGREE + 1));
-    Spline { control, knots }
+    Spline::from_written(control, &pls)
 }
 
 /// The control point whose Greville abscissa is nearest to the parameter where the spline comes

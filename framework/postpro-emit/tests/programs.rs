@@ -324,7 +324,7 @@ fn streaming_equals_the_whole_rendering() {
 /// the programmed CL segments (plus the rounding of the written control points).
 #[test]
 fn bspline_stays_within_tolerance_of_the_cl_points() {
-    use postpro_emit::bspline::{DEGREE, Spline};
+    use postpro_emit::bspline::Spline;
     for example in EXAMPLES {
         let m = machine("mikron-ucp710");
         let kin = solver_for(&m);
@@ -362,16 +362,8 @@ fn bspline_stays_within_tolerance_of_the_cl_points() {
         }
         assert!(splines.len() > 10, "{example}: {} splines", splines.len());
         for (control, pls) in splines {
-            let spans = &pls[1..pls.len() - 1];
-            let total: f64 = spans.iter().sum();
-            let mut knots = vec![0.0; DEGREE + 1];
-            let mut t = 0.0;
-            for s in &spans[..spans.len() - 1] {
-                t += s;
-                knots.push(t);
-            }
-            knots.extend(std::iter::repeat_n(total, DEGREE + 1));
-            let spline = Spline { control, knots };
+            let spline = Spline::from_written(control, &pls);
+            let total = spline.domain().1;
             let polyline = |p: &Point3<f64>| {
                 cl.windows(2)
                     .map(|w| {

@@ -29,6 +29,23 @@ impl Spline {
         if k <= 1 || k >= m { 0.0 } else { self.knots[k + 2] - self.knots[k + 1] }
     }
 
+    /// The spline a CNC builds from a written `BSPLINE`: the control points (the start point
+    /// first, then one per written block) and the `PL` of each written block as [`Spline::pl`]
+    /// writes them (0 on the first and the last, one knot span each in between); the parameter
+    /// starts at 0.
+    pub fn from_written(control: Vec<Joints>, pl: &[f64]) -> Spline {
+        let spans = pl.get(1..pl.len().saturating_sub(1)).unwrap_or_default();
+        let total: f64 = spans.iter().sum();
+        let mut knots = vec![0.0; DEGREE + 1];
+        let mut t = 0.0;
+        for s in spans.iter().take(spans.len().saturating_sub(1)) {
+            t += s;
+            knots.push(t);
+        }
+        knots.extend(std::iter::repeat_n(total, DEGREE + 1));
+        Spline { control, knots }
+    }
+
     /// The parameter range.
     pub fn domain(&self) -> (f64, f64) {
         (self.knots[DEGREE], self.knots[self.control.len()])
@@ -354,6 +371,15 @@ mod tests {
                         d[k][a]
                     );
                 }
+            }
+        }
+        // Read back from what is written (control points and PL), it is the same curve.
+        let written: Vec<f64> = (1..spline.control.len()).map(|k| spline.pl(k)).collect();
+        let back = Spline::from_written(spline.control.clone(), &written);
+        for &u in &[0.0, 0.3, 5.55, 14.0] {
+            let (p, q) = (spline.at(u + params[0]), back.at(u));
+            for a in 0..3 {
+                assert!((p[a] - q[a]).abs() < 1e-9, "at {u}: {p:?} vs {q:?}");
             }
         }
         let spans: f64 = (1..=11).map(|k| spline.pl(k)).sum();
