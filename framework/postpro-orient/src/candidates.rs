@@ -180,6 +180,29 @@ pub fn candidates(
     Ok(out)
 }
 
+/// How far apart two set-ups are: the sum of their rotary axes' differences (rad).
+pub fn rotary_distance(machine: &Machine, a: &Joints, b: &Joints) -> f64 {
+    machine.chain.part.iter().chain(&machine.chain.tool).map(|&i| (a[i] - b[i]).abs()).sum()
+}
+
+/// Among `found` (best first, as [`candidates`] gives them), those whose `level` norm is the
+/// best (within a millionth), the one nearest `near` (the previous path's set-up: the rotary
+/// axes move least); the first when `near` is unknown.
+pub fn nearest_of_the_best(
+    machine: &Machine,
+    found: &[Candidate],
+    level: Level,
+    near: Option<&Joints>,
+) -> Option<Candidate> {
+    let best = found.first()?.norm(level);
+    let distance = |c: &Candidate| near.map_or(0.0, |n| rotary_distance(machine, &c.joints, n));
+    found
+        .iter()
+        .filter(|c| c.norm(level) >= best * (1.0 - 1e-6))
+        .min_by(|a, b| distance(a).total_cmp(&distance(b)))
+        .copied()
+}
+
 /// When no set-up points `d` at a vertex within the travels and the cone: the set-up within them
 /// whose `options.level` norm along `d` is the largest (paper 004 eq. 13), by a search over the
 /// rotary axes (3° steps over their travels, then two finer passes around the best); among
@@ -230,7 +253,7 @@ pub fn best_in_cone(
     // Nearest `near`, or the machine's home (all rotary axes at 0) when there is none.
     let home = Joints::zeros(machine.axes.len());
     let near = near.unwrap_or(&home);
-    let distance = |c: &Candidate| -> f64 { rotary.iter().map(|&i| (c.joints[i] - near[i]).abs()).sum() };
+    let distance = |c: &Candidate| rotary_distance(machine, &c.joints, near);
     let better = |a: &Candidate, b: &Candidate| {
         let (x, y) = (a.norm(options.level), b.norm(options.level));
         x > y * (1.0 + 1e-3) || (x >= y * (1.0 - 1e-3) && distance(a) < distance(b))

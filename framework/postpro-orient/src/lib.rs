@@ -48,7 +48,7 @@ pub mod paths;
 pub mod polytope;
 pub mod setup;
 
-pub use candidates::{Candidate, Options, best_in_cone, candidates};
+pub use candidates::{Candidate, Options, best_in_cone, candidates, nearest_of_the_best, rotary_distance};
 pub use paths::{PartDirection, Path, SplitOptions, part_direction, split};
 pub use polytope::{Bounds, JointBoxes, JointMap, Level, Polytope, Vertex, bounds};
 pub use setup::{Applied, Setup, apply};

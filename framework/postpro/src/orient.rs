@@ -146,7 +146,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             // A path whose tool axis moves is 5-axis: it is not re-oriented.
             Ok(_) if axis_spread > FIVE_AXIS_DEG => None,
             Ok(found) if !found.is_empty() => {
-                nearest_of_the_best(&found, level, previous.or(original_at).as_ref(), machine)
+                postpro_orient::nearest_of_the_best(machine, &found, level, previous.or(original_at).as_ref())
             }
             // No vertex within the travels and the cone: the best set-up there (eq. 13).
             Ok(_) => {
@@ -288,33 +288,6 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         return write_job(&oriented, &writing, &|_| {});
     }
     printed
-}
-
-/// Among the candidates whose `level` norm is the best (within a millionth), the one whose
-/// rotary angles are nearest `near` (all of them when `near` is unknown: the first).
-fn nearest_of_the_best(
-    found: &[Candidate],
-    level: Level,
-    near: Option<&postpro_kin::Joints>,
-    machine: &Machine,
-) -> Option<Candidate> {
-    let best = found.first()?.norm(level);
-    let distance = |c: &Candidate| -> f64 {
-        near.map_or(0.0, |n| {
-            machine
-                .axes
-                .iter()
-                .zip(c.joints.as_slice().iter().zip(n.as_slice()))
-                .filter(|(a, _)| a.kind == AxisKind::Rotary)
-                .map(|(_, (x, y))| (x - y).abs())
-                .sum()
-        })
-    };
-    found
-        .iter()
-        .filter(|c| c.norm(level) >= best * (1.0 - 1e-6))
-        .min_by(|a, b| distance(a).total_cmp(&distance(b)))
-        .copied()
 }
 
 /// The predicted time of each path (`spans`: its byte range in the CL file): the time of the
