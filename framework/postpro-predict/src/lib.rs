@@ -112,5 +112,10 @@ pub fn predict(blocks: &Blocks, kin: &dyn Kinematics, options: &Options) -> Pred
         threshold: options.threshold,
         samples: collector.count,
     };
-    Prediction { blocks: collector.results, samples: collector.samples, totals: Some(totals) }
+    Prediction {
+        blocks: collector.results,
+        samples: collector.samples,
+        totals: Some(totals),
+        notes: blocks.notes.clone(),
+    }
 }

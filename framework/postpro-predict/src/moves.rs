@@ -34,7 +34,7 @@ pub enum BlockKind {
     Rapid,
 }
 
-/// Why the blocks could not be built.
+/// An assumption the prediction had to make about a block (a feed it could not read).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Note {
     /// The step where it happened.

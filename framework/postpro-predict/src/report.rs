@@ -125,6 +125,8 @@ pub struct Prediction {
     pub samples: Option<Samples>,
     /// The totals.
     pub totals: Option<Totals>,
+    /// The assumptions made (a feed per revolution without a spindle speed, no feed).
+    pub notes: Vec<crate::moves::Note>,
 }
 
 impl Prediction {

@@ -185,6 +185,10 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
         Some(args) => {
             stage("predicting the feed");
             let predicted = predict::run(job, mode, args, false);
+            for note in &predicted.notes {
+                let at = job.solved.steps[note.step].span.start as usize;
+                eprintln!("note: {}: prediction: {}", source.location(at), note.text);
+            }
             let annotations = predict::annotations(&predicted, machine, args.threshold());
             let summary = predict::header(&predicted, args, mode, annotations.len());
             (Some(summary), annotations)

@@ -333,6 +333,9 @@ fn table(prediction: &Prediction, machine: &Machine, job: &Job, args: &PredictAr
             let _ = writeln!(out, "  {cause:<24} {lost:>9.2} s  {count:>8} blocks");
         }
     }
+    for note in &prediction.notes {
+        let _ = writeln!(out, "note: line {}: {}", line(job, note.step), note.text);
+    }
     let header = "\n  block    line  kind            length mm  F mm/min    min mm/min  mean mm/min   time s  limit";
     let row = |out: &mut String, i: usize| {
         let b = &prediction.blocks[i];
@@ -497,6 +500,7 @@ fn json(prediction: &Prediction, machine: &Machine, job: &Job, planner: Planner)
             "feed_length_mm": t.feed_length, "length_below_mm": t.length_below, "threshold": t.threshold,
             "share_below": t.share_below(),
         },
+        "notes": prediction.notes.iter().map(|n| json!({ "line": line(job, n.step), "text": n.text })).collect::<Vec<_>>(),
         "blocks": blocks,
         "samples": samples,
     });

@@ -322,7 +322,8 @@ fn json_has_the_totals_blocks_and_samples_of_the_table() {
     let keys =
         |v: &serde_json::Value| -> BTreeSet<String> { v.as_object().expect("an object").keys().cloned().collect() };
     let set = |names: &[&str]| -> BTreeSet<String> { names.iter().map(|s| s.to_string()).collect() };
-    assert_eq!(keys(&json), set(&["file", "machine", "planner", "totals", "blocks", "samples"]));
+    assert_eq!(keys(&json), set(&["file", "machine", "planner", "totals", "notes", "blocks", "samples"]));
+    assert_eq!(json["notes"], serde_json::json!([]), "the example needs no assumption");
     assert_eq!(
         (json["file"].as_str(), json["machine"].as_str(), json["planner"].as_str()),
         (Some(CL), Some("mikron-ucp710"), Some("inverse-time"))
@@ -706,4 +707,23 @@ fn the_main_job_marks_the_slowdowns_of_the_inverse_time_planner() {
 #[test]
 fn the_main_job_marks_the_slowdowns_of_the_vpop_planner() {
     main_job_marks_the_slowdowns("vpop");
+}
+
+/// A move with no feed programmed is predicted at the controller's largest feed, and said so:
+/// in the table, in the JSON, and on the main job's standard error (file:line:column).
+#[test]
+fn a_move_without_a_feed_is_predicted_at_the_largest_feed_and_said_so() {
+    let dir = scratch("no-feed");
+    std::fs::write(dir.join("nofeed.cl"), "GOTO/0,0,0\nGOTO/10,0,0\nFEDRAT/MMPM,1000\nGOTO/20,0,0\n").expect("write");
+    let o = postpro(&["predict", "nofeed.cl", "--machine", MACHINE, "--json", "p.json"], &dir);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let note = "no feed programmed: predicted at the largest feed";
+    assert!(stdout(&o).contains(&format!("note: line 2: {note}")), "{}", stdout(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("p.json")).expect("json")).expect("parses");
+    assert_eq!(json["notes"][0]["line"], 2, "{}", json["notes"]);
+    assert_eq!(json["notes"][0]["text"], note);
+    let o = postpro(&["--machine", MACHINE, "nofeed.cl", "-o", "nofeed.mpf"], &dir);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    assert!(stderr(&o).contains(&format!("note: nofeed.cl:2:1: prediction: {note}")), "{}", stderr(&o));
 }
