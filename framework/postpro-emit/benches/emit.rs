@@ -1,10 +1,10 @@
 //! End-to-end throughput (CL points per second): read a generated 5-axis CL file, solve it on a
-//! machine, write the NC program (to a sink), in G1, in inverse time and as BSPLINE.
+//! machine, build its motion program, write the NC program (to a sink), in G1, in inverse time and as BSPLINE.
 //! `cargo bench -p postpro-emit --bench emit` (size: `POSTPRO_BENCH_MB`, default 16).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use postpro_cl::{Source, read};
-use postpro_emit::{Mode, Options, builtin_template, dialect, write_program};
+use postpro_emit::{Mode, Options, builtin_template, dialect, motion_options, write_program};
 use postpro_kin::{solve, solver_for};
 use postpro_machine::Registry;
 
@@ -22,7 +22,6 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for (mode, label) in [(Mode::G1, "g1"), (Mode::InverseTime, "inverse_time"), (Mode::Bspline, "bspline")] {
         let options = Options {
-            mode,
             program_name: "BENCH".into(),
             source_name: "big.cl".into(),
             block_numbers: false,
@@ -34,8 +33,10 @@ fn bench(c: &mut Criterion) {
                 let path = read(&source);
                 let kin = solver_for(&machine);
                 let solved = solve(kin.as_ref(), &path, &machine.policy).expect("solves");
+                let motion = postpro_motion::collect(&path, &solved, kin.as_ref(), &motion_options(d, mode))
+                    .expect("the motion program builds");
                 let mut out = std::io::BufWriter::new(std::io::sink());
-                write_program(&path, &solved, kin.as_ref(), d, &options, d.name, template, &mut out).expect("writes");
+                write_program(&motion, &machine, d, &options, d.name, template, &mut out).expect("writes");
                 solved.steps.len()
             })
         });

@@ -26,7 +26,7 @@ pub use dialect::{DIALECTS, Dialect, TcpStyle, dialect};
 pub use format::{number, push_number};
 pub use program::{
     Annotation, AxisInfo, Block, BlockSink, Header, Mode, Options, Prediction, Program, Tool, Word, build,
-    build_blocks, check_mode, clean_comment, header, tools,
+    build_blocks, check_mode, clean_comment, header, motion_options, tools,
 };
 pub use render::{TEMPLATES, builtin_template, render, write_program};
 

@@ -1,48 +1,24 @@
-//! The template context: the NC program as data, built from the tool path (the order of the CL
-//! file, its tools, spindle, coolant, texts) and the solved positions (axis values, decisions).
-//! `docs/templates.md` documents every field; templates see exactly these names.
+//! The template context: the NC program as data, formatted from the motion program (its blocks
+//! in program order, their axis values and F words) for one dialect: numbers written with each
+//! axis's decimals, only the words that change, comments cleaned and cut to the line length, the
+//! prediction's annotations placed before the motion of their steps. `docs/templates.md`
+//! documents every field; templates see exactly these names.
 
-use postpro_cl::{Coolant, CutterComp, Delay, FeedPer, ItemKind, Motion, Spindle, SpindleUnit, TextKind, ToolPath};
-use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind};
+use postpro_cl::Coolant;
+use postpro_kin::{Joints, Pose};
 use postpro_machine::model::{AxisKind, Machine};
+use postpro_motion::{BlockKind, FeedWord, Placement, Position};
 use serde::Serialize;
 
 use crate::EmitError;
 use crate::dialect::{Dialect, TcpStyle};
 use crate::format::push_number;
 
-/// How motion is written.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Mode {
-    /// Axis values with `G1` and the programmed feed.
-    G1,
-    /// Axis values with `G93` and F = 1/Δt on every block.
-    InverseTime,
-    /// Tool tip and tool vector in the part frame; the controller solves the kinematics.
-    Tcp,
-    /// Siemens `BSPLINE SD=3`: a cubic B-spline through the axis positions of each run of feed
-    /// moves, within the linearization tolerance.
-    Bspline,
-}
-
-impl Mode {
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::G1 => "g1",
-            Mode::InverseTime => "inverse-time",
-            Mode::Tcp => "tcp",
-            Mode::Bspline => "bspline",
-        }
-    }
-}
+pub use postpro_motion::Mode;
 
 /// What the emitter is asked for.
 #[derive(Clone, Debug)]
 pub struct Options {
-    /// Output mode.
-    pub mode: Mode,
     /// Program name (from the file name).
     pub program_name: String,
     /// The CL file, as the user named it.
@@ -70,7 +46,7 @@ pub struct Options {
 /// dropped.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Annotation {
-    /// Index into [`Solved::steps`].
+    /// Index into `Solved::steps` (the `step` of the motion program's positions).
     pub step: usize,
     /// The comment text (without the dialect's comment characters).
     pub text: String,
@@ -349,33 +325,39 @@ pub fn check_mode(dialect: &Dialect, mode: Mode) -> Result<(), EmitError> {
     if supported { Ok(()) } else { Err(EmitError::Unsupported { dialect: dialect.name, mode: mode.name() }) }
 }
 
+/// The motion program's options for a dialect and mode: the controller's feed ranges.
+pub fn motion_options(dialect: &Dialect, mode: Mode) -> postpro_motion::Options {
+    postpro_motion::Options {
+        mode,
+        inverse_time_range: dialect.inverse_time_range.unwrap_or((0.001, 99_999.0)),
+        feed_range: dialect.feed_range,
+    }
+}
+
 /// Builds the whole program (the template context).
 pub fn build(
-    path: &ToolPath,
-    solved: &Solved,
-    kin: &dyn Kinematics,
+    motion: &postpro_motion::Program,
+    machine: &Machine,
     dialect: &Dialect,
     options: &Options,
 ) -> Result<Program, EmitError> {
-    let machine = kin.machine();
-    let header = header(path, solved, machine, dialect, options);
-    let tools = tools(path);
+    let header = header(motion, machine, dialect, options);
+    let tools = tools(motion);
     let mut blocks = Vec::new();
-    build_blocks(path, solved, kin, dialect, options, &mut blocks)?;
+    build_blocks(motion, machine, dialect, options, &mut blocks)?;
     Ok(Program { header, tools, blocks })
 }
 
 /// The header of the program.
-pub fn header(path: &ToolPath, solved: &Solved, machine: &Machine, dialect: &Dialect, options: &Options) -> Header {
-    let cl_points = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
+pub fn header(motion: &postpro_motion::Program, machine: &Machine, dialect: &Dialect, options: &Options) -> Header {
     Header {
         name: options.program_name.clone(),
-        part: path.info.part_name.clone(),
+        part: motion.part.clone(),
         source: options.source_name.clone(),
         machine: machine.name.clone(),
         machine_description: machine.description.clone(),
         dialect: dialect.clone(),
-        mode: options.mode,
+        mode: motion.mode,
         generator: format!("postpro {}", env!("CARGO_PKG_VERSION")),
         axes: machine
             .axes
@@ -385,10 +367,10 @@ pub fn header(path: &ToolPath, solved: &Solved, machine: &Machine, dialect: &Dia
                 kind: if a.kind == AxisKind::Rotary { "rotary" } else { "linear" },
             })
             .collect(),
-        cl_points,
-        linearized_points: solved.inserted,
+        cl_points: motion.summary.cl_points,
+        linearized_points: motion.summary.linearized_points,
         tolerance: machine.policy.linearization_tolerance,
-        decisions: solved.decisions.len(),
+        decisions: motion.summary.decisions,
         prediction: options
             .prediction
             .as_ref()
@@ -397,19 +379,18 @@ pub fn header(path: &ToolPath, solved: &Solved, machine: &Machine, dialect: &Dia
 }
 
 /// The tools of the program in order of first use, with the geometry given before each change.
-pub fn tools(path: &ToolPath) -> Vec<Tool> {
+pub fn tools(motion: &postpro_motion::Program) -> Vec<Tool> {
     let mut tools: Vec<Tool> = Vec::new();
-    let mut shape = None;
-    for item in &path.items {
-        match &item.kind {
-            ItemKind::ToolShape(s) => shape = Some((s.diameter, s.corner_radius)),
-            ItemKind::ToolChange(t) => {
-                let (diameter, corner_radius) = shape.take().map_or((None, None), |(d, r)| (Some(d), Some(r)));
-                if !tools.iter().any(|x| x.number == t.number) {
-                    tools.push(Tool { number: t.number, name: t.name.clone(), diameter, corner_radius });
-                }
-            }
-            _ => {}
+    for block in &motion.blocks {
+        if let BlockKind::ToolChange(t) = &block.kind
+            && !tools.iter().any(|x| x.number == t.number)
+        {
+            tools.push(Tool {
+                number: t.number,
+                name: t.name.clone(),
+                diameter: t.diameter,
+                corner_radius: t.corner_radius,
+            });
         }
     }
     tools
@@ -417,140 +398,64 @@ pub fn tools(path: &ToolPath) -> Vec<Tool> {
 
 /// The blocks of the program, in order, handed to `sink`.
 pub fn build_blocks(
-    path: &ToolPath,
-    solved: &Solved,
-    kin: &dyn Kinematics,
+    motion: &postpro_motion::Program,
+    machine: &Machine,
     dialect: &Dialect,
     options: &Options,
     sink: &mut dyn BlockSink,
 ) -> Result<(), EmitError> {
-    check_mode(dialect, options.mode)?;
-    let mut b = Builder::new(kin, dialect, options, sink);
-    b.unknown = path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
-    let mut k = 0; // next step
-    let decisions = &solved.decisions;
-    let mut d = 0; // next decision
-    for item in &path.items {
-        let motion = match &item.kind {
-            ItemKind::Move(m) => Some(m.motion),
-            ItemKind::Arc(a) => Some(a.motion),
-            ItemKind::Nurbs(n) => Some(n.motion),
-            _ => None,
-        };
-        match motion {
-            Some(motion) => {
-                // The steps of this item: every step up to its statement.
-                while k < solved.steps.len() && solved.steps[k].span.start <= item.span.start {
-                    while d < decisions.len() && decisions[d].step == k {
-                        b.decision(&decisions[d]);
-                        d += 1;
-                    }
-                    b.step(k, &solved.steps[k], motion)?;
-                    k += 1;
-                }
-            }
-            None => b.item(&item.kind),
-        }
+    check_mode(dialect, motion.mode)?;
+    let mut f = Formatter::new(machine, motion.mode, dialect, options, sink);
+    for block in &motion.blocks {
+        f.block(&block.kind);
     }
-    while k < solved.steps.len() {
-        b.step(k, &solved.steps[k], Motion::Rapid)?;
-        k += 1;
-    }
-    b.finish()
+    f.finish()
 }
 
-struct Builder<'a> {
-    kin: &'a dyn Kinematics,
+/// The dialect's words for the motion program's blocks, with the modal state of what was
+/// written last (axis texts, F, feed mode) and the annotations still to place.
+struct Formatter<'a> {
     machine: &'a Machine,
+    mode: Mode,
     dialect: &'a Dialect,
     options: &'a Options,
     sink: &'a mut dyn BlockSink,
     /// The first error of the sink (a failed write); later blocks are dropped.
     failed: Option<EmitError>,
     next_n: u32,
-    /// The axis texts last written, per axis.
+    /// The texts last written, per axis (or per TCP word).
     written: Vec<Option<String>>,
     last_feed: Option<String>,
     feed_mode: &'static str,
-    last_tip: Option<nalgebra::Point3<f64>>,
-    previous: Option<postpro_kin::Joints>,
-    tcp_on: bool,
-    spindle_rpm: Option<f64>,
-    clamped: usize,
-    /// BSPLINE mode: the feed moves waiting to be fitted, linearization points included (the
-    /// spline goes through the others; written as G1, the run has a block for each).
-    run: Vec<Queued>,
-    /// The position before the run (its start point): the last step written or queued that is
-    /// not a linearization point.
-    run_start: Option<Step>,
-    /// The last step written or queued, linearization points aside.
-    last_step: Option<Step>,
-    /// Words the reader does not know: carried as comments.
-    unknown: std::collections::BTreeSet<String>,
     /// The annotations, as indices into `options.annotations` in order of step.
     notes: Vec<usize>,
     /// The next one of `notes` to write.
     next_note: usize,
-    /// BSPLINE mode: the comments held for the run, in order of their run positions.
-    run_notes: Vec<Held>,
 }
 
-/// A feed move queued in a `BSPLINE` run.
-struct Queued {
-    step: Step,
-    /// The F value as written.
-    feed: String,
-    /// A point added by linearization: not fitted, written only when the run is written as G1.
-    linearized: bool,
-}
-
-/// A comment held for a `BSPLINE` run.
-struct Held {
-    /// The run position of the block it goes before; `run.len()` or more: after the run.
-    at: usize,
-    /// Carried over from the run before, with the linearization points it ended with (they lead
-    /// to this run's first point): when this run is a spline, written before its `BSPLINE`, right
-    /// after that run.
-    carried: bool,
-    text: HeldText,
-}
-
-enum HeldText {
-    /// An index into `options.annotations`.
-    Note(usize),
-    /// An IKT decision's comment.
-    Decision(String),
-}
-
-impl<'a> Builder<'a> {
-    fn new(kin: &'a dyn Kinematics, dialect: &'a Dialect, options: &'a Options, sink: &'a mut dyn BlockSink) -> Self {
-        Builder {
-            kin,
-            machine: kin.machine(),
+impl<'a> Formatter<'a> {
+    fn new(
+        machine: &'a Machine,
+        mode: Mode,
+        dialect: &'a Dialect,
+        options: &'a Options,
+        sink: &'a mut dyn BlockSink,
+    ) -> Self {
+        let mut notes: Vec<usize> = (0..options.annotations.len()).collect();
+        notes.sort_by_key(|&i| options.annotations[i].step);
+        Formatter {
+            machine,
+            mode,
             dialect,
             options,
             sink,
             failed: None,
             next_n: 10,
-            written: vec![None; kin.machine().axes.len().max(6)],
+            written: vec![None; machine.axes.len().max(6)],
             last_feed: None,
             feed_mode: "per-minute",
-            last_tip: None,
-            previous: None,
-            tcp_on: false,
-            spindle_rpm: None,
-            clamped: 0,
-            run: Vec::new(),
-            run_start: None,
-            last_step: None,
-            unknown: std::collections::BTreeSet::new(),
-            notes: {
-                let mut notes: Vec<usize> = (0..options.annotations.len()).collect();
-                notes.sort_by_key(|&i| options.annotations[i].step);
-                notes
-            },
+            notes,
             next_note: 0,
-            run_notes: Vec::new(),
         }
     }
 
@@ -570,13 +475,8 @@ impl<'a> Builder<'a> {
         })
     }
 
-    /// Text made fit for a comment of the dialect (see [`clean_comment`]).
-    fn clean(&self, text: &str) -> String {
-        clean_comment(self.dialect, text)
-    }
-
     fn comment(&mut self, text: &str) {
-        let mut clean = self.clean(text);
+        let mut clean = clean_comment(self.dialect, text);
         let room = self
             .dialect
             .max_line
@@ -589,7 +489,7 @@ impl<'a> Builder<'a> {
         self.push(Block::Comment { n, text: clean.trim_end().to_string() });
     }
 
-    /// The annotations of the steps up to `k` not yet written.
+    /// The annotations of the steps up to `k` not yet written, as positions in `notes`.
     fn take_notes(&mut self, k: usize) -> std::ops::Range<usize> {
         let annotations = &self.options.annotations;
         let start = self.next_note;
@@ -598,10 +498,10 @@ impl<'a> Builder<'a> {
         start..end
     }
 
-    /// Writes annotation `i` as a comment.
-    fn note(&mut self, i: usize) {
+    /// Writes annotation `notes[at]` as a comment.
+    fn note(&mut self, at: usize) {
         let options = self.options;
-        if let Some(a) = options.annotations.get(i) {
+        if let Some(a) = self.notes.get(at).and_then(|&i| options.annotations.get(i)) {
             self.comment(&a.text);
         }
     }
@@ -609,40 +509,7 @@ impl<'a> Builder<'a> {
     /// Writes the annotations of the steps up to `k` not yet written.
     fn notes_upto(&mut self, k: usize) {
         for at in self.take_notes(k) {
-            self.note(self.notes[at]);
-        }
-    }
-
-    /// Holds the annotations of the steps up to `k` for the run, before its position `at`.
-    fn hold_notes(&mut self, k: usize, at: usize) {
-        for n in self.take_notes(k) {
-            let i = self.notes[n];
-            self.run_notes.push(Held { at, carried: false, text: HeldText::Note(i) });
-        }
-    }
-
-    /// Writes the comments `held` for a run from `*next` on, while `upto` accepts them.
-    fn held_upto(&mut self, held: &[Held], next: &mut usize, upto: impl Fn(&Held) -> bool) {
-        while let Some(h) = held.get(*next) {
-            if !upto(h) {
-                break;
-            }
-            *next += 1;
-            match &h.text {
-                HeldText::Note(i) => self.note(*i),
-                HeldText::Decision(text) => self.comment(text),
-            }
-        }
-    }
-
-    fn decision(&mut self, noted: &Noted) {
-        self.flush_run(true);
-        let text = format!("postpro: {}", noted.decision);
-        if self.run.is_empty() {
-            self.comment(&text);
-        } else {
-            // Linearization points wait for their step: the comment goes before it.
-            self.run_notes.push(Held { at: self.run.len(), carried: true, text: HeldText::Decision(text) });
+            self.note(at);
         }
     }
 
@@ -655,13 +522,13 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// The axis words of a step that differ from what was last written (all with `all`).
-    fn axis_words(&mut self, step: &Step, all: bool) -> Vec<Word> {
+    /// The axis words of a position that differ from what was last written (all with `all`).
+    fn axis_words(&mut self, joints: &Joints, all: bool) -> Vec<Word> {
         let mut words = Vec::with_capacity(self.machine.axes.len());
         for (i, axis) in self.machine.axes.iter().enumerate() {
             let value = match axis.kind {
-                AxisKind::Linear => step.joints[i],
-                AxisKind::Rotary => step.joints[i].to_degrees(),
+                AxisKind::Linear => joints[i],
+                AxisKind::Rotary => joints[i].to_degrees(),
             };
             let mut text = String::with_capacity(12);
             push_number(&mut text, value, usize::from(axis.decimals), self.dialect.explicit_plus);
@@ -674,14 +541,14 @@ impl<'a> Builder<'a> {
     }
 
     /// Tool tip and vector in the part frame (TCP mode).
-    fn tcp_words(&mut self, step: &Step) -> Vec<Word> {
+    fn tcp_words(&mut self, pose: &Pose) -> Vec<Word> {
         let (i, j, k) = match self.dialect.tcp {
             TcpStyle::Traori => ("A3", "B3", "C3"),
             TcpStyle::G43_5 => ("I", "J", "K"),
             _ => ("TX", "TY", "TZ"),
         };
-        let p = step.pose.tip;
-        let a = step.pose.axis;
+        let p = pose.tip;
+        let a = pose.axis;
         let entries = [("X", p.x, 4usize), ("Y", p.y, 4), ("Z", p.z, 4), (i, a.x, 7), (j, a.y, 7), (k, a.z, 7)];
         let texts: Vec<String> = entries
             .iter()
@@ -697,7 +564,7 @@ impl<'a> Builder<'a> {
         for (slot, ((letter, value, _), text)) in entries.into_iter().zip(texts).enumerate() {
             let changed = if slot < 3 { self.written[slot].as_deref() != Some(text.as_str()) } else { vector_changed };
             if changed {
-                if slot >= 3 && self.dialect.tcp == TcpStyle::M128 && slot == 3 {
+                if self.dialect.tcp == TcpStyle::M128 && slot == 3 {
                     // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D compensation).
                     for (n, v) in [("NX", a.x), ("NY", a.y), ("NZ", a.z)] {
                         let mut t = String::with_capacity(12);
@@ -712,357 +579,180 @@ impl<'a> Builder<'a> {
         words
     }
 
-    fn step(&mut self, k: usize, step: &Step, motion: Motion) -> Result<(), EmitError> {
-        if self.options.mode == Mode::Bspline {
-            let feed = match motion {
-                Motion::Feed(f)
-                    if f.per == FeedPer::Minute
-                        && !step.rapid
-                        && step.kind != StepKind::Retract
-                        && step.kind != StepKind::Reorient =>
-                {
-                    Some(f)
-                }
-                _ => None,
-            };
-            match feed {
-                // The spline goes through the CL points (it is checked against the tolerance
-                // itself); the linearization points are queued for a run written as G1.
-                Some(f) => {
-                    let mut text = String::new();
-                    push_number(&mut text, f.value, self.dialect.feed_decimals, false);
-                    let linearized = step.kind == StepKind::Linearized;
-                    // A point at another feed ends the run; the linearization points queued for it
-                    // (at its feed) go on into the next.
-                    if !linearized && self.run.iter().rev().find(|q| !q.linearized).is_some_and(|q| q.feed != text) {
-                        self.flush_run(true);
-                    }
-                    if self.run.is_empty() {
-                        self.run_start = self.last_step;
-                    }
-                    self.hold_notes(k, self.run.len());
-                    self.run.push(Queued { step: *step, feed: text, linearized });
-                    if !linearized {
-                        self.last_step = Some(*step);
-                    }
-                    return Ok(());
-                }
-                None => self.flush_run(false),
-            }
-        }
-        self.last_step = Some(*step);
-        // Before anything the step writes (or where it would, when it writes nothing).
-        self.notes_upto(k);
-        // In TCP mode the controller interpolates in the part frame: no linearization points.
-        if self.options.mode == Mode::Tcp && step.kind == StepKind::Linearized {
-            return Ok(());
-        }
-        if self.options.mode == Mode::Tcp && !self.tcp_on {
-            self.tcp_on = true;
-            self.written.iter_mut().for_each(|w| *w = None);
-            let n = self.n();
-            self.push(Block::TcpOn { n });
-        }
-        let rapid =
-            step.rapid || matches!(step.kind, StepKind::Retract | StepKind::Reorient) || motion == Motion::Rapid;
-        let tip = step.pose.tip;
-        let length = self.last_tip.map_or(0.0, |t| (tip - t).norm());
-        self.last_tip = Some(tip);
-        let previous = self.previous.replace(step.joints).unwrap_or(step.joints);
-        let tcp = self.options.mode == Mode::Tcp;
-        if rapid {
-            let words = if tcp { self.tcp_words(step) } else { self.axis_words(step, false) };
-            if !words.is_empty() {
-                let n = self.n();
-                self.push(Block::Rapid { n, words });
-            }
-            return Ok(());
-        }
-        let feed = match motion {
-            Motion::Feed(f) => Some(f),
-            _ => None,
-        };
-        match (self.options.mode, feed) {
-            (Mode::InverseTime, Some(f)) if f.per == FeedPer::Minute && f.value > 0.0 => {
-                self.set_feed_mode("inverse-time");
-                let (lo, hi) = self.dialect.inverse_time_range.unwrap_or((0.001, 99_999.0));
-                // Δt = L / feed; F = 1/Δt. Too long a block is split so that F ≥ the minimum.
-                let f_inverse = if length > 0.0 { f.value / length } else { hi };
-                let pieces = if f_inverse < lo { (lo / f_inverse).ceil().min(1e6) as usize } else { 1 };
-                let (f_piece, note) = if f_inverse * pieces as f64 > hi {
-                    self.clamped += 1;
-                    (hi, Some(self.clean(&format!("F limited to {hi} (block of {length:.4} mm)"))))
-                } else {
-                    (f_inverse * pieces as f64, None)
-                };
-                for p in 1..=pieces {
-                    let part = if pieces == 1 {
-                        *step
-                    } else {
-                        Step { joints: previous.lerp(&step.joints, p as f64 / pieces as f64), ..*step }
-                    };
-                    let words = self.axis_words(&part, true);
-                    let mut text = String::new();
-                    push_number(&mut text, f_piece, self.dialect.feed_decimals.max(3), false);
-                    let n = self.n();
-                    self.push(Block::Linear { n, words, feed: Some(text), note: note.clone() });
-                }
-            }
-            _ => {
-                let mut note = None;
-                let feed_text = match feed {
-                    Some(f) => {
-                        let (value, mode) = match f.per {
-                            FeedPer::Minute => (f.value, "per-minute"),
-                            FeedPer::Revolution => (f.value, "per-revolution"),
-                        };
-                        self.set_feed_mode(mode);
-                        let (lo, hi) = self.dialect.feed_range;
-                        let limited = if mode == "per-minute" { value.clamp(lo, hi) } else { value };
-                        let mut text = String::new();
-                        push_number(&mut text, limited, self.dialect.feed_decimals, false);
-                        (self.last_feed.as_deref() != Some(text.as_str())).then(|| {
-                            self.last_feed = Some(text.clone());
-                            if limited != value {
-                                // Out of the controller's range: written at the limit, and said so.
-                                note = Some(
-                                    self.clean(&format!("feed {value} mm/min out of the controller's range {lo}…{hi}")),
-                                );
-                            }
-                            text
-                        })
-                    }
-                    None => None,
-                };
-                let words = if tcp { self.tcp_words(step) } else { self.axis_words(step, false) };
-                if words.is_empty() && feed_text.is_none() {
-                    return Ok(());
-                }
-                let n = self.n();
-                self.push(Block::Linear { n, words, feed: feed_text, note });
-            }
-        }
-        Ok(())
+    /// The words of a position in this mode: the tip and vector in TCP mode, else the axes.
+    fn position_words(&mut self, to: &Position, all: bool) -> Vec<Word> {
+        if self.mode == Mode::Tcp { self.tcp_words(&to.pose) } else { self.axis_words(&to.axes, all) }
     }
 
-    fn item(&mut self, kind: &ItemKind) {
-        if !matches!(kind, ItemKind::Comment(_) | ItemKind::Frame(_) | ItemKind::Multax(_) | ItemKind::ToolShape(_)) {
-            self.flush_run(false);
-        }
+    fn block(&mut self, kind: &BlockKind) {
         match kind {
-            ItemKind::ToolChange(t) => {
-                if self.tcp_on {
-                    self.tcp_on = false;
+            BlockKind::Comment(text) => self.comment(text),
+            BlockKind::Insert(text) => {
+                let n = self.n();
+                self.push(Block::Insert { n, text: text.clone() });
+            }
+            BlockKind::Operation(name) if !name.is_empty() => self.comment(&format!("operation: {name}")),
+            BlockKind::Operation(_) => {}
+            BlockKind::Rapid(to) => {
+                // Before anything the step writes (or where it would, when it writes nothing).
+                self.notes_upto(to.step);
+                let words = self.position_words(to, false);
+                if !words.is_empty() {
                     let n = self.n();
-                    self.push(Block::TcpOff { n });
+                    self.push(Block::Rapid { n, words });
                 }
+            }
+            BlockKind::Linear(linear) => self.linear(linear),
+            BlockKind::Spline(spline) => self.spline(spline),
+            BlockKind::ToolChange(t) => {
                 let n = self.n();
                 self.push(Block::ToolChange {
                     n,
                     number: t.number,
                     name: t.name.clone(),
-                    offset: t.adjust.unwrap_or(t.number),
-                    length_compensation: self.machine.chain.tool_length == 0.0,
+                    offset: t.length_register,
+                    length_compensation: t.length_compensation,
                 });
                 // After a tool change every axis is written again.
                 self.written.iter_mut().for_each(|w| *w = None);
                 self.last_feed = None;
             }
-            ItemKind::ToolShape(_) | ItemKind::ToolSelect(_) => {}
-            ItemKind::Spindle(Spindle::On { speed, unit, clockwise }) => {
-                self.spindle_rpm = (*unit == SpindleUnit::Rpm).then_some(*speed);
+            BlockKind::SpindleOn { speed, clockwise, surface_speed } => {
                 let mut text = String::new();
                 push_number(&mut text, *speed, 0, false);
                 let n = self.n();
-                self.push(Block::SpindleOn {
-                    n,
-                    speed: text,
-                    clockwise: *clockwise,
-                    surface_speed: *unit == SpindleUnit::SurfaceSpeed,
-                });
+                self.push(Block::SpindleOn { n, speed: text, clockwise: *clockwise, surface_speed: *surface_speed });
             }
-            ItemKind::Spindle(Spindle::Off) => {
+            BlockKind::SpindleOff => {
                 let n = self.n();
                 self.push(Block::SpindleOff { n });
             }
-            ItemKind::Coolant(c) => {
+            BlockKind::CoolantOn(c) => {
+                let coolant = match c {
+                    Coolant::Flood => "flood",
+                    Coolant::Mist => "mist",
+                    Coolant::Through => "through",
+                    Coolant::Air => "air",
+                    Coolant::On | Coolant::Off => "on",
+                };
                 let n = self.n();
-                self.push(match c {
-                    Coolant::Off => Block::CoolantOff { n },
-                    Coolant::On => Block::CoolantOn { n, coolant: "on" },
-                    Coolant::Flood => Block::CoolantOn { n, coolant: "flood" },
-                    Coolant::Mist => Block::CoolantOn { n, coolant: "mist" },
-                    Coolant::Through => Block::CoolantOn { n, coolant: "through" },
-                    Coolant::Air => Block::CoolantOn { n, coolant: "air" },
-                });
+                self.push(Block::CoolantOn { n, coolant });
             }
-            ItemKind::CutterComp(c) => {
-                let side = match c {
-                    CutterComp::Left => "LEFT",
-                    CutterComp::Right => "RIGHT",
-                    CutterComp::On => "ON",
-                    CutterComp::Off => "OFF",
-                };
-                self.comment(&format!("CUTCOM/{side}: the CL points are tool-centre points; not applied"));
+            BlockKind::CoolantOff => {
+                let n = self.n();
+                self.push(Block::CoolantOff { n });
             }
-            ItemKind::CycleOn(c) => {
-                let params: Vec<String> = c
-                    .params
-                    .iter()
-                    .map(|(k, v)| match k {
-                        Some(k) if v.is_nan() => k.clone(),
-                        Some(k) => format!("{k} {v}"),
-                        None => v.to_string(),
-                    })
-                    .collect();
-                self.comment(&format!("CYCLE/{} {}: hole positions follow as moves", c.kind, params.join(" ")));
+            BlockKind::Dwell(seconds) => {
+                let mut text = String::new();
+                push_number(&mut text, *seconds, 3, false);
+                let n = self.n();
+                self.push(Block::Dwell { n, seconds: text });
             }
-            ItemKind::CycleOff => self.comment("CYCLE/OFF"),
-            ItemKind::Delay(d) => {
-                let seconds = match *d {
-                    Delay::Seconds(s) => Some(s),
-                    Delay::Revolutions(r) => self.spindle_rpm.filter(|rpm| *rpm > 0.0).map(|rpm| r * 60.0 / rpm),
-                };
-                match seconds {
-                    Some(s) => {
-                        let mut text = String::new();
-                        push_number(&mut text, s, 3, false);
-                        let n = self.n();
-                        self.push(Block::Dwell { n, seconds: text });
-                    }
-                    None => self.comment("DELAY in revolutions without a spindle speed: not written"),
-                }
-            }
-            ItemKind::Stop(text) => {
+            BlockKind::Stop(text) => {
                 let n = self.n();
                 self.push(Block::Stop { n, text: text.clone() });
             }
-            ItemKind::OptionalStop => {
+            BlockKind::OptionalStop => {
                 let n = self.n();
                 self.push(Block::OptionalStop { n });
             }
-            ItemKind::Text(TextKind::Insert, text) => {
+            BlockKind::TcpOn => {
+                self.written.iter_mut().for_each(|w| *w = None);
                 let n = self.n();
-                self.push(Block::Insert { n, text: text.clone() });
+                self.push(Block::TcpOn { n });
             }
-            ItemKind::Text(TextKind::Partno, _) => {}
-            ItemKind::Text(_, text) => self.comment(text),
-            ItemKind::OperationStart(name) if !name.is_empty() => self.comment(&format!("operation: {name}")),
-            // Unknown words go to the program as comments; known passive ones (PAINT) do not.
-            ItemKind::Record(r) if self.unknown.contains(&r.word) => {
-                let args = if r.args.is_empty() { String::new() } else { format!("/{}", r.args) };
-                self.comment(&format!("CL {}{args}: unknown word, not interpreted", r.word));
+            BlockKind::TcpOff => {
+                let n = self.n();
+                self.push(Block::TcpOff { n });
             }
-            ItemKind::Record(_) => {}
-            ItemKind::Move(_)
-            | ItemKind::Arc(_)
-            | ItemKind::Nurbs(_)
-            | ItemKind::Comment(_)
-            | ItemKind::OperationStart(_)
-            | ItemKind::OperationEnd
-            | ItemKind::Frame(_)
-            | ItemKind::Multax(_)
-            | ItemKind::End
-            | ItemKind::Fini => {}
         }
     }
 
-    /// Writes the queued run of feed moves as a B-spline through its points that are not
-    /// linearization points, or as G1 moves through all of them when it is too short or the
-    /// spline cannot follow it within the tolerance.
-    ///
-    /// With `carry`, the linearization points after the run's last other point (those of a point
-    /// still to come, which starts the next run) stay queued, with the comments held for them and
-    /// after them, for the next run.
-    ///
-    /// The annotations held for the run go before the first control point of the span that ends
-    /// at their point (after `BSPLINE`; a linearization point's: at the next point of the spline),
-    /// or before their point's block when written as G1; those held past the run's last point go
-    /// after it. Comments carried from the run before go before `BSPLINE`.
-    fn flush_run(&mut self, carry: bool) {
-        let mut run = std::mem::take(&mut self.run);
-        let mut held = std::mem::take(&mut self.run_notes);
-        let start = self.run_start.take();
-        // The run up to its last point that is not a linearization point.
-        let split = run.iter().rposition(|q| !q.linearized).map_or(0, |i| i + 1);
-        if carry && split < run.len() {
-            self.run = run.split_off(split);
-            self.run_start = if split > 0 { Some(run[split - 1].step) } else { start };
-            let from = held.partition_point(|h| h.at < split);
-            self.run_notes =
-                held.split_off(from).into_iter().map(|h| Held { at: h.at - split, carried: true, ..h }).collect();
-        }
-        let mut next = 0;
-        // The points the spline goes through, after the start (point 0 of the fit).
-        let points: Vec<&Step> = run.iter().filter(|q| !q.linearized).map(|q| &q.step).collect();
-        let fitted = start.filter(|_| !points.is_empty()).and_then(|start| {
-            let joints: Vec<Joints> = std::iter::once(start.joints).chain(points.iter().map(|s| s.joints)).collect();
-            let poses: Vec<Pose> = std::iter::once(start.pose).chain(points.iter().map(|s| s.pose)).collect();
-            let tolerance = self.machine.policy.linearization_tolerance;
-            let cone = self.machine.policy.singular_cone;
-            crate::bspline::fit_indexed(
-                self.kin,
-                &crate::bspline::Run { joints: &joints, poses: &poses },
-                tolerance,
-                cone,
-            )
-        });
-        let mut g1_from = 0;
-        if let Some((spline, _, index)) = fitted {
-            let last = *points[points.len() - 1];
-            let feed = run.iter().find(|q| !q.linearized).map(|q| q.feed.clone()).unwrap_or_default();
-            self.held_upto(&held, &mut next, |h| h.carried);
-            let n = self.n();
-            self.push(Block::BsplineOn { n, degree: crate::bspline::DEGREE, feed });
-            // `rank[p]`: the points before run position `p`. A comment held before position `p`
-            // goes with point `rank[p]`; point `r` is point `r + 1` of the fit (the start is point
-            // 0): its span begins with the control point after that of the point before it.
-            let rank: Vec<usize> = std::iter::once(0)
-                .chain(run[..split].iter().scan(0, |r, q| {
-                    *r += usize::from(!q.linearized);
-                    Some(*r)
-                }))
-                .collect();
-            let mut r = 0;
-            for (k, control) in spline.control.iter().enumerate().skip(1) {
-                while r < points.len() && index.get(r).is_some_and(|&before| k > before) {
-                    self.held_upto(&held, &mut next, |h| h.at < split && rank[h.at] <= r);
-                    r += 1;
-                }
-                let step = Step { joints: *control, ..last };
-                let words = self.axis_words(&step, true);
-                let mut pl = String::new();
-                push_number(&mut pl, spline.pl(k), 4, false);
+    fn linear(&mut self, linear: &postpro_motion::Linear) {
+        self.notes_upto(linear.to.step);
+        match linear.feed {
+            FeedWord::InverseTime(f) => {
+                self.set_feed_mode("inverse-time");
+                let words = self.axis_words(&linear.to.axes, true);
+                let mut text = String::new();
+                push_number(&mut text, f, self.dialect.feed_decimals.max(3), false);
+                let note = linear.note.as_deref().map(|t| clean_comment(self.dialect, t));
                 let n = self.n();
-                self.push(Block::ControlPoint { n, words, pl });
+                self.push(Block::Linear { n, words, feed: Some(text), note });
             }
-            let n = self.n();
-            self.push(Block::BsplineOff { n });
-            self.last_feed = None;
-            // Linearization points after the last point (a run ended without their point): G1.
-            g1_from = split;
-        }
-        for (p, q) in run.iter().enumerate().skip(g1_from) {
-            self.held_upto(&held, &mut next, |h| h.at <= p);
-            let words = self.axis_words(&q.step, false);
-            let feed = (self.last_feed.as_deref() != Some(q.feed.as_str())).then(|| q.feed.clone());
-            if let Some(f) = &feed {
-                self.last_feed = Some(f.clone());
+            FeedWord::PerMinute(value) | FeedWord::PerRevolution(value) => {
+                let mode = if matches!(linear.feed, FeedWord::PerMinute(_)) { "per-minute" } else { "per-revolution" };
+                self.set_feed_mode(mode);
+                let mut text = String::new();
+                push_number(&mut text, value, self.dialect.feed_decimals, false);
+                let mut note = None;
+                let feed = (self.last_feed.as_deref() != Some(text.as_str())).then(|| {
+                    self.last_feed = Some(text.clone());
+                    note = linear.note.as_deref().map(|t| clean_comment(self.dialect, t));
+                    text
+                });
+                let words = self.position_words(&linear.to, false);
+                if words.is_empty() && feed.is_none() {
+                    return;
+                }
+                let n = self.n();
+                self.push(Block::Linear { n, words, feed, note });
             }
-            let n = self.n();
-            self.push(Block::Linear { n, words, feed, note: None });
         }
-        self.held_upto(&held, &mut next, |_| true);
+    }
+
+    /// A B-spline run: `BSPLINE`, its control points with their `PL`, back to `G1`; the
+    /// annotations of its steps where the motion program places them.
+    fn spline(&mut self, spline: &postpro_motion::Spline) {
+        let end = spline.points.last().map_or(0, |p| p.step);
+        let last_step = spline.steps.last().map_or(end, |s| s.0).max(end);
+        let first_step = spline.steps.first().map_or(end, |s| s.0);
+        // Annotations of earlier steps not yet written, then those of the run, by place.
+        self.notes_upto(first_step.saturating_sub(1));
+        let taken = self.take_notes(last_step);
+        let annotations = &self.options.annotations;
+        let mut placed: Vec<(usize, usize)> = taken
+            .map(|at| {
+                let step = annotations[self.notes[at]].step;
+                let place =
+                    spline.steps.binary_search_by_key(&step, |s| s.0).ok().map_or(0, |i| match spline.steps[i].1 {
+                        Placement::BeforeStart => 0,
+                        Placement::BeforeControl(k) => k,
+                    });
+                (place, at)
+            })
+            .collect();
+        placed.sort_by_key(|&(place, _)| place);
+        let mut next = 0;
+        let mut upto = |f: &mut Self, place: usize| {
+            while let Some(&(p, at)) = placed.get(next).filter(|(p, _)| *p <= place) {
+                let _ = p;
+                f.note(at);
+                next += 1;
+            }
+        };
+        upto(self, 0);
+        let mut feed = String::new();
+        push_number(&mut feed, spline.feed, self.dialect.feed_decimals, false);
+        let n = self.n();
+        self.push(Block::BsplineOn { n, degree: postpro_kin::bspline::DEGREE, feed });
+        for (k, control) in spline.curve.control.iter().enumerate().skip(1) {
+            upto(self, k);
+            let words = self.axis_words(control, true);
+            let mut pl = String::new();
+            push_number(&mut pl, spline.curve.pl(k), 4, false);
+            let n = self.n();
+            self.push(Block::ControlPoint { n, words, pl });
+        }
+        upto(self, usize::MAX);
+        let n = self.n();
+        self.push(Block::BsplineOff { n });
+        self.last_feed = None;
     }
 
     fn finish(mut self) -> Result<(), EmitError> {
-        self.flush_run(false);
         // Annotations of steps past the last one: after the last motion, never dropped.
         self.notes_upto(usize::MAX);
-        if self.tcp_on {
-            let n = self.n();
-            self.push(Block::TcpOff { n });
-        }
         if self.feed_mode != "per-minute" {
             self.set_feed_mode("per-minute");
         }

@@ -5,8 +5,7 @@ use std::collections::HashMap;
 use std::io::Write;
 
 use minijinja::{Environment, UndefinedBehavior, Value};
-use postpro_cl::ToolPath;
-use postpro_kin::{Kinematics, Solved};
+use postpro_machine::model::Machine;
 
 use crate::EmitError;
 use crate::dialect::Dialect;
@@ -60,24 +59,23 @@ fn describe(e: &minijinja::Error) -> String {
 /// (not only the formatted texts) is detected and always rendered in full.
 #[allow(clippy::too_many_arguments)]
 pub fn write_program(
-    path: &ToolPath,
-    solved: &Solved,
-    kin: &dyn Kinematics,
+    motion: &postpro_motion::Program,
+    machine: &Machine,
     dialect: &Dialect,
     options: &Options,
     name: &str,
     source: &str,
     out: &mut dyn Write,
 ) -> Result<(), EmitError> {
-    check_mode(dialect, options.mode)?;
+    check_mode(dialect, motion.mode)?;
     let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
     env.set_keep_trailing_newline(true);
     env.add_template(name, source).map_err(err)?;
     let template = env.get_template(name).map_err(err)?;
-    let header = header(path, solved, kin.machine(), dialect, options);
-    let tools = tools(path);
+    let header = header(motion, machine, dialect, options);
+    let tools = tools(motion);
     let context = minijinja::context! {
         header => Value::from_serialize(&header),
         tools => Value::from_serialize(&tools),
@@ -88,7 +86,7 @@ pub fn write_program(
     let state = captured.state();
     let streamable = ["program_start", "block", "program_end"].iter().all(|m| state.lookup(m).is_some());
     if !streamable {
-        let program = build(path, solved, kin, dialect, options)?;
+        let program = build(motion, machine, dialect, options)?;
         let text = render(&program, name, source)?;
         for line in text.lines() {
             check_length(line, dialect)?;
@@ -99,7 +97,7 @@ pub fn write_program(
     start.lines().try_for_each(|l| check_length(l, dialect))?;
     out.write_all(start.as_bytes()).map_err(io_error)?;
     let mut sink = Streaming { state, name, dialect, out, shapes: HashMap::new(), line: String::with_capacity(128) };
-    build_blocks(path, solved, kin, dialect, options, &mut sink)?;
+    build_blocks(motion, machine, dialect, options, &mut sink)?;
     let end = state.call_macro("program_end", &[]).map_err(err)?;
     end.lines().try_for_each(|l| check_length(l, dialect))?;
     out.write_all(end.as_bytes()).map_err(io_error)

@@ -11,10 +11,35 @@ use std::collections::HashMap;
 
 use postpro_cl::{Source, ToolPath, read};
 use postpro_emit::bspline::{DEGREE, Spline};
-use postpro_emit::{Annotation, Dialect, Mode, Options, Prediction, build, builtin_template, dialect, render};
+use postpro_emit::{Annotation, Dialect, Mode, Prediction, build, builtin_template, dialect, render};
 use postpro_kin::{Joints, Kinematics, Solved, Step, StepKind, linearize, solve, solver_for};
 use postpro_machine::Registry;
 use postpro_machine::model::{AxisKind, Machine};
+
+mod common;
+
+/// What a test asks for: the mode of the motion program and the emitter's options.
+#[derive(Clone, Debug)]
+struct Options {
+    mode: Mode,
+    program_name: String,
+    source_name: String,
+    block_numbers: bool,
+    prediction: Option<Prediction>,
+    annotations: Vec<Annotation>,
+}
+
+impl Options {
+    fn emit(&self) -> postpro_emit::Options {
+        postpro_emit::Options {
+            program_name: self.program_name.clone(),
+            source_name: self.source_name.clone(),
+            block_numbers: self.block_numbers,
+            prediction: self.prediction.clone(),
+            annotations: self.annotations.clone(),
+        }
+    }
+}
 
 /// Rapid in, plunge, an arc of 16 points at F2000 (one BSPLINE run), a 20° reorientation at F1000
 /// (linearized on the Mikron), a short line at F2000, a rapid retract.
@@ -124,11 +149,11 @@ fn options(mode: Mode, solved: &Solved, block_numbers: bool) -> Options {
 /// The program, rendered whole and streamed (they must agree).
 fn program(f: &Fixture, d: &Dialect, options: &Options) -> String {
     let template = builtin_template(d.name).expect("template");
-    let whole = render(&build(&f.path, &f.solved, f.kin.as_ref(), d, options).expect("builds"), d.name, template)
-        .expect("renders");
+    let motion = common::motion(&f.path, &f.solved, f.kin.as_ref(), d, options.mode);
+    let emit = options.emit();
+    let whole = render(&build(&motion, &f.machine, d, &emit).expect("builds"), d.name, template).expect("renders");
     let mut streamed = Vec::new();
-    postpro_emit::write_program(&f.path, &f.solved, f.kin.as_ref(), d, options, d.name, template, &mut streamed)
-        .expect("writes");
+    postpro_emit::write_program(&motion, &f.machine, d, &emit, d.name, template, &mut streamed).expect("writes");
     assert!(whole == String::from_utf8(streamed).expect("UTF-8"), "{} {:?}: streamed ≠ whole", d.name, options.mode);
     whole
 }

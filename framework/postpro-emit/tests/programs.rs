@@ -13,6 +13,9 @@ use postpro_machine::Registry;
 use postpro_machine::model::{AxisKind, Machine};
 use sha2::{Digest, Sha256};
 
+mod common;
+use common::motion;
+
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -38,14 +41,13 @@ fn program(relative: &str, machine_name: &str, mode: Mode, dialect_name: Option<
     let solved = solve(kin.as_ref(), &path, &m.policy).unwrap_or_else(|e| panic!("{relative} on {machine_name}: {e}"));
     let d = dialect(dialect_name.unwrap_or(&m.dialect)).expect("dialect");
     let options = Options {
-        mode,
         program_name: "TEST".into(),
         source_name: relative.into(),
         block_numbers: false,
         prediction: None,
         annotations: Vec::new(),
     };
-    let p = build(&path, &solved, kin.as_ref(), d, &options).expect("builds");
+    let p = build(&motion(&path, &solved, kin.as_ref(), d, mode), &m, d, &options).expect("builds");
     render(&p, d.name, builtin_template(d.name).expect("template")).expect("renders")
 }
 
@@ -252,23 +254,21 @@ fn unsupported_modes_are_errors() {
     let kin = solver_for(&m);
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let options = Options {
-        mode: Mode::Tcp,
         program_name: "T".into(),
         source_name: "t".into(),
         block_numbers: false,
         prediction: None,
         annotations: Vec::new(),
     };
-    let err = build(&path, &solved, kin.as_ref(), dialect("linuxcnc").expect("dialect"), &options).expect_err("no TCP");
-    assert_eq!(err.to_string(), "the linuxcnc dialect has no tcp mode");
-    let options = Options { mode: Mode::InverseTime, ..options };
-    let err =
-        build(&path, &solved, kin.as_ref(), dialect("heidenhain").expect("dialect"), &options).expect_err("no G93");
-    assert_eq!(err.to_string(), "the heidenhain dialect has no inverse-time mode");
-    let options = Options { mode: Mode::Bspline, ..options };
-    let err =
-        build(&path, &solved, kin.as_ref(), dialect("fanuc").expect("dialect"), &options).expect_err("no BSPLINE");
-    assert_eq!(err.to_string(), "the fanuc dialect has no bspline mode");
+    for (d, mode, message) in [
+        ("linuxcnc", Mode::Tcp, "the linuxcnc dialect has no tcp mode"),
+        ("heidenhain", Mode::InverseTime, "the heidenhain dialect has no inverse-time mode"),
+        ("fanuc", Mode::Bspline, "the fanuc dialect has no bspline mode"),
+    ] {
+        let d = dialect(d).expect("dialect");
+        let err = build(&motion(&path, &solved, kin.as_ref(), d, mode), &m, d, &options).expect_err(message);
+        assert_eq!(err.to_string(), message);
+    }
 }
 
 /// Writing block by block (the CLI's way, with skeletons for the motion blocks) gives exactly
@@ -285,7 +285,6 @@ fn streaming_equals_the_whole_rendering() {
             for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp, Mode::Bspline] {
                 for block_numbers in [false, true] {
                     let options = Options {
-                        mode,
                         program_name: "TEST".into(),
                         source_name: "t.cl".into(),
                         block_numbers,
@@ -293,20 +292,12 @@ fn streaming_equals_the_whole_rendering() {
                         annotations: Vec::new(),
                     };
                     let template = builtin_template(d.name).expect("template");
-                    let Ok(program) = build(&path, &solved, kin.as_ref(), d, &options) else { continue };
+                    let program_motion = motion(&path, &solved, kin.as_ref(), d, mode);
+                    let Ok(program) = build(&program_motion, &m, d, &options) else { continue };
                     let whole = render(&program, d.name, template).expect("renders");
                     let mut streamed = Vec::new();
-                    postpro_emit::write_program(
-                        &path,
-                        &solved,
-                        kin.as_ref(),
-                        d,
-                        &options,
-                        d.name,
-                        template,
-                        &mut streamed,
-                    )
-                    .expect("writes");
+                    postpro_emit::write_program(&program_motion, &m, d, &options, d.name, template, &mut streamed)
+                        .expect("writes");
                     assert!(
                         whole == String::from_utf8(streamed).expect("UTF-8"),
                         "{} {:?} {block_numbers}",
@@ -394,17 +385,16 @@ fn user_templates_are_strict_and_lines_are_bounded() {
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let d = dialect("fanuc").expect("dialect");
     let options = Options {
-        mode: Mode::G1,
         program_name: "T".into(),
         source_name: "t".into(),
         block_numbers: false,
         prediction: None,
         annotations: Vec::new(),
     };
+    let program = motion(&path, &solved, kin.as_ref(), d, Mode::G1);
     let write = |template: &str| {
         let mut out = Vec::new();
-        postpro_emit::write_program(&path, &solved, kin.as_ref(), d, &options, "user.j2", template, &mut out)
-            .map(|()| out)
+        postpro_emit::write_program(&program, &m, d, &options, "user.j2", template, &mut out).map(|()| out)
     };
     let err = write("{{ header.no_such_field }}").expect_err("strict");
     assert!(err.to_string().starts_with("template user.j2: "), "{err}");
@@ -427,7 +417,6 @@ fn a_feed_out_of_range_is_limited_and_noted() {
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let d = dialect("fanuc").expect("dialect");
     let options = Options {
-        mode: Mode::G1,
         program_name: "T".into(),
         source_name: "fast.cl".into(),
         block_numbers: false,
@@ -435,7 +424,7 @@ fn a_feed_out_of_range_is_limited_and_noted() {
         annotations: Vec::new(),
     };
     let text = render(
-        &build(&path, &solved, kin.as_ref(), d, &options).expect("builds"),
+        &build(&motion(&path, &solved, kin.as_ref(), d, Mode::G1), &m, d, &options).expect("builds"),
         d.name,
         builtin_template(d.name).expect("template"),
     )

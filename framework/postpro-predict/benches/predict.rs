@@ -34,10 +34,10 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use postpro_cl::{Source, ToolPath, read};
+use postpro_cl::{Source, read};
 use postpro_examples::surface::BezierPatch;
 use postpro_examples::toolpath::{Pattern, StepOver, ToolpathParams, generate};
-use postpro_kin::{Kinematics, Solved, solve, solver_for};
+use postpro_kin::{Kinematics, solve, solver_for};
 use postpro_machine::Registry;
 use postpro_machine::model::Machine;
 use postpro_predict::{Blocks, Options, Timing, blocks, predict};
@@ -52,8 +52,7 @@ struct Workload {
     name: &'static str,
     machine: Machine,
     kin: Box<dyn Kinematics>,
-    path: ToolPath,
-    solved: Solved,
+    program: postpro_motion::Program,
     blocks: Blocks,
 }
 
@@ -104,7 +103,14 @@ fn prepare(name: &'static str, text: String, machine: &str, registry: &Registry)
     let machine = registry.find(machine).expect("built-in machine").machine.clone();
     let kin = solver_for(&machine);
     let solved = solve(kin.as_ref(), &path, &machine.policy).unwrap_or_else(|e| panic!("{name}: does not solve: {e}"));
-    let blocks = blocks(&path, &solved, &machine, Timing::TipFeed);
+    let program = postpro_motion::collect(
+        &path,
+        &solved,
+        kin.as_ref(),
+        &postpro_motion::Options::unbounded(postpro_motion::Mode::G1),
+    )
+    .unwrap_or_else(|e| panic!("{name}: no motion program: {e}"));
+    let blocks = blocks(&program, &machine, Timing::TipFeed);
     let (started, cpu_before) = (Instant::now(), thread_cpu_time());
     let prediction = predict(&blocks, kin.as_ref(), &options());
     let (seconds, cpu) = (started.elapsed().as_secs_f64(), thread_cpu_time().zip(cpu_before).map(|(a, b)| a - b));
@@ -132,7 +138,7 @@ fn prepare(name: &'static str, text: String, machine: &str, registry: &Registry)
             t / samples.max(1) as f64 * 1e9,
         );
     }
-    Workload { name, machine, kin, path, solved, blocks }
+    Workload { name, machine, kin, program, blocks }
 }
 
 /// What the benchmark predicts with: the inverse-time planner, no samples kept, the CNC's cycle.
@@ -174,7 +180,7 @@ fn bench(c: &mut Criterion) {
     for w in &workloads {
         group.throughput(Throughput::Elements(w.blocks.len() as u64));
         group.bench_function(format!("blocks/{}", w.name), |b| {
-            b.iter_with_large_drop(|| blocks(black_box(&w.path), &w.solved, &w.machine, Timing::TipFeed))
+            b.iter_with_large_drop(|| blocks(black_box(&w.program), &w.machine, Timing::TipFeed))
         });
         group.bench_function(format!("predict/{}", w.name), |b| {
             b.iter_with_large_drop(|| predict(black_box(&w.blocks), w.kin.as_ref(), &options))

@@ -1,17 +1,19 @@
-//! The motion the CNC is asked for: one block per solved step, with its programmed feed.
+//! The motion the CNC is asked for, read from the motion program: one block per position it
+//! writes (a rapid, a feed move, each point a B-spline passes through, each point the controller
+//! passes through on its own in TCP mode), with its programmed feed.
 //!
-//! A block moves the axes from the previous step's values to its own, linearly in the axis
-//! space (that is what G1 and G93 command). Its **nominal duration** is the time the program
-//! asks for: in inverse time, TCP and B-spline output the tip length over the feed (`L / V_f`);
-//! in G1 output the CNC reads F as the feed of the linear axes in the machine frame (or of the
-//! rotary axes in degrees per minute when only they move), so a block that swings the table lasts
-//! `|ΔXYZ| / F`, whatever the tip does. Rapids move at the axes' speed (G0). Blocks are stored
-//! column-wise: a million of them is a few tens of megabytes.
+//! A block moves the axes from the previous position to its own, linearly in the axis space
+//! (that is what G1 and G93 command). Its **nominal duration** is the time the program asks for:
+//! `60 / F` s in inverse time; the tip length over the feed (`L / V_f`) in TCP and B-spline
+//! output; in G1 output the CNC reads F as the feed of the linear axes in the machine frame (or
+//! of the rotary axes in degrees per minute when only they move), so a block that swings the
+//! table lasts `|ΔXYZ| / F`, whatever the tip does. Rapids move at the axes' speed (G0). Blocks
+//! are stored column-wise: a million of them is a few tens of megabytes.
 
 use nalgebra::Vector3;
-use postpro_cl::{FeedPer, ItemKind, Motion, ToolPath};
-use postpro_kin::{Solved, StepKind};
+use postpro_kin::{StepKind, bspline};
 use postpro_machine::model::{AxisKind, Machine};
+use postpro_motion::{BlockKind as MotionKind, FeedWord, Position};
 
 /// How the CNC turns the programmed feed into the duration of a block.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,6 +45,18 @@ pub struct Note {
     pub text: String,
 }
 
+/// A B-spline of the motion program and the blocks it covers: block `first + d` ends at data
+/// point `d + 1` of the fit (`poses[d + 1]`).
+#[derive(Clone, Debug)]
+pub struct SplineRun {
+    /// The first block.
+    pub first: usize,
+    /// The curve in the axis space; `control[0]` is the position before it.
+    pub curve: bspline::Spline,
+    /// The tool poses of the data points, the start first.
+    pub poses: Vec<postpro_kin::Pose>,
+}
+
 /// The blocks of a program, column-wise. Block `i` moves from `position(i)` to `position(i + 1)`.
 #[derive(Clone, Debug, Default)]
 pub struct Blocks {
@@ -70,9 +84,8 @@ pub struct Blocks {
     pub step: Vec<usize>,
     /// True when the block ends on a CL point (not on a point added by linearization).
     pub cl: Vec<bool>,
-    /// True when an item of the CL file stands between this block and the previous one (the
-    /// emitter ends a B-spline run there: anything but comments, frames, MULTAX, tool shapes).
-    pub run_break: Vec<bool>,
+    /// The B-splines of the program, in order, each over a run of consecutive blocks.
+    pub splines: Vec<SplineRun>,
     /// Where an assumption was made (a feed per revolution without a spindle speed, no feed).
     pub notes: Vec<Note>,
 }
@@ -125,109 +138,117 @@ impl Blocks {
     }
 }
 
-/// The blocks of a solved tool path, each with the feed of the CL statement it comes from,
-/// timed as `timing` says.
-pub fn blocks(path: &ToolPath, solved: &Solved, machine: &Machine, timing: Timing) -> Blocks {
+/// The blocks of a motion program, each with its programmed feed, timed as `timing` says for
+/// feeds per minute.
+pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timing) -> Blocks {
     let mut out = Blocks { axes: machine.axes.len(), ..Blocks::default() };
-    let Some(first) = solved.steps.first() else { return out };
-    out.push_position(first.joints.as_slice(), &first.pose);
-    let mut state = State { stop: true, run_break: true, dwell: 0.0, rpm: None, feed: None };
-    let mut k = 1; // next step; the first one is where the machine starts
-    for item in &path.items {
-        let motion = match &item.kind {
-            ItemKind::Move(m) => m.motion,
-            ItemKind::Arc(a) => a.motion,
-            ItemKind::Nurbs(n) => n.motion,
-            other => {
-                state.item(other);
-                continue;
+    let mut state = State { stop: true, dwell: 0.0, rpm: None, feed: None, started: false };
+    for block in &program.blocks {
+        match &block.kind {
+            MotionKind::Rapid(to) => push_block(&mut out, machine, timing, to, Feed::Rapid, &mut state),
+            MotionKind::Linear(linear) => {
+                let feed = match linear.feed {
+                    FeedWord::PerMinute(f) => Feed::PerMinute(f),
+                    FeedWord::PerRevolution(f) => Feed::PerRevolution(f),
+                    FeedWord::InverseTime(f) => Feed::InverseTime(f, 1 + linear.via.len()),
+                };
+                for via in &linear.via {
+                    push_block(&mut out, machine, timing, via, feed, &mut state);
+                }
+                push_block(&mut out, machine, timing, &linear.to, feed, &mut state);
             }
-        };
-        while k < solved.steps.len() && solved.steps[k].span.start <= item.span.start {
-            push_block(&mut out, solved, machine, timing, k, motion, &mut state);
-            k += 1;
+            MotionKind::Spline(spline) => {
+                let first = out.len();
+                for at in &spline.points {
+                    push_block(&mut out, machine, Timing::TipFeed, at, Feed::PerMinute(spline.feed), &mut state);
+                }
+                if out.len() > first {
+                    out.splines.push(SplineRun { first, curve: spline.curve.clone(), poses: spline.poses.clone() });
+                }
+            }
+            other => state.item(other),
         }
-    }
-    while k < solved.steps.len() {
-        push_block(&mut out, solved, machine, timing, k, Motion::Rapid, &mut state);
-        k += 1;
     }
     out
 }
 
-/// What the items between moves leave for the next block.
+/// The feed of a block as the motion program gives it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Feed {
+    Rapid,
+    /// mm/min.
+    PerMinute(f64),
+    /// mm/rev.
+    PerRevolution(f64),
+    /// 1/min, for a block written as this many positions.
+    InverseTime(f64, usize),
+}
+
+/// What the blocks between moves leave for the next block.
 struct State {
     stop: bool,
-    run_break: bool,
     dwell: f64,
     rpm: Option<f64>,
     feed: Option<f64>,
+    /// The first position is known: the machine starts there.
+    started: bool,
 }
 
 impl State {
-    fn item(&mut self, kind: &ItemKind) {
-        if !matches!(kind, ItemKind::Comment(_) | ItemKind::Frame(_) | ItemKind::Multax(_) | ItemKind::ToolShape(_)) {
-            self.run_break = true;
-        }
+    fn item(&mut self, kind: &MotionKind) {
         match kind {
-            ItemKind::ToolChange(_) | ItemKind::Stop(_) | ItemKind::OptionalStop | ItemKind::End => self.stop = true,
-            ItemKind::Spindle(s) => {
+            MotionKind::ToolChange(_) | MotionKind::Stop(_) | MotionKind::OptionalStop => self.stop = true,
+            MotionKind::SpindleOn { speed, surface_speed, .. } => {
                 self.stop = true;
-                self.rpm = match s {
-                    postpro_cl::Spindle::On { speed, unit: postpro_cl::SpindleUnit::Rpm, .. } => Some(*speed),
-                    _ => None,
-                };
+                self.rpm = (!surface_speed).then_some(*speed);
             }
-            ItemKind::Delay(d) => {
+            MotionKind::SpindleOff => {
                 self.stop = true;
-                self.dwell += match d {
-                    postpro_cl::Delay::Seconds(s) => *s,
-                    postpro_cl::Delay::Revolutions(r) => self.rpm.map_or(0.0, |rpm| r / rpm * 60.0),
-                };
+                self.rpm = None;
+            }
+            MotionKind::Dwell(seconds) => {
+                self.stop = true;
+                self.dwell += seconds;
             }
             _ => {}
         }
     }
 }
 
-fn push_block(
-    out: &mut Blocks,
-    solved: &Solved,
-    machine: &Machine,
-    timing: Timing,
-    k: usize,
-    motion: Motion,
-    state: &mut State,
-) {
-    let step = &solved.steps[k];
-    let from = &solved.steps[k - 1];
-    let rapid = step.rapid || matches!(step.kind, StepKind::Retract | StepKind::Reorient) || motion == Motion::Rapid;
-    let length = (step.pose.tip - from.pose.tip).norm();
-    let feed = if rapid {
-        0.0
-    } else {
-        match motion {
-            Motion::Feed(f) if f.per == FeedPer::Minute && f.value > 0.0 => f.value / 60.0,
-            Motion::Feed(f) if f.per == FeedPer::Revolution && f.value > 0.0 => match state.rpm {
-                Some(rpm) => f.value * rpm / 60.0,
-                None => {
-                    out.notes.push(Note {
-                        step: k,
-                        text: "feed per revolution without a spindle speed: predicted at the largest feed".into(),
-                    });
-                    machine.cnc.feed_max / 60.0
-                }
-            },
-            _ => {
-                if state.feed.is_none() {
-                    out.notes.push(Note { step: k, text: "no feed programmed: predicted at the largest feed".into() });
-                }
+fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position, feed: Feed, state: &mut State) {
+    if !state.started {
+        // The first position is where the machine starts.
+        state.started = true;
+        out.push_position(to.axes.as_slice(), &to.pose);
+        return;
+    }
+    let i = out.len();
+    let from_tip = out.tips[i];
+    let length = (to.pose.tip - from_tip).norm();
+    let rapid = feed == Feed::Rapid || matches!(to.kind, StepKind::Retract | StepKind::Reorient);
+    let speed = match feed {
+        Feed::Rapid => 0.0,
+        Feed::PerMinute(f) if f > 0.0 => f / 60.0,
+        Feed::PerRevolution(f) if f > 0.0 => match state.rpm {
+            Some(rpm) => f * rpm / 60.0,
+            None => {
+                out.notes.push(Note {
+                    step: to.step,
+                    text: "feed per revolution without a spindle speed: predicted at the largest feed".into(),
+                });
                 machine.cnc.feed_max / 60.0
             }
+        },
+        Feed::InverseTime(f, _) if f > 0.0 => 0.0,
+        _ => {
+            if state.feed.is_none() {
+                out.notes
+                    .push(Note { step: to.step, text: "no feed programmed: predicted at the largest feed".into() });
+            }
+            machine.cnc.feed_max / 60.0
         }
     };
-    state.feed = Some(feed);
-    let (a, b) = (from.joints.as_slice(), step.joints.as_slice());
+    let (a, b) = (out.position(i).to_vec(), to.axes.as_slice());
     // The time at the axes' own speeds: a rapid's duration, and the floor of every block.
     let at_axis_speed =
         machine.axes.iter().zip(a.iter().zip(b)).map(|(ax, (x, y))| (y - x).abs() / ax.vmax).fold(0.0, f64::max);
@@ -238,12 +259,14 @@ fn push_block(
     } else {
         BlockKind::Feed
     };
-    let nominal = match (kind, timing) {
-        (BlockKind::Rapid, _) => at_axis_speed,
+    let nominal = match (kind, feed, timing) {
+        (BlockKind::Rapid, ..) => at_axis_speed,
+        // The program asks for the block to last 1/F min, wherever the tip goes.
+        (_, Feed::InverseTime(f, parts), _) if f > 0.0 => 60.0 / f / parts as f64,
         // The program asks for no particular duration: as fast as the axes go.
-        (BlockKind::Reorientation, Timing::TipFeed) => at_axis_speed,
-        (BlockKind::Feed, Timing::TipFeed) => length / feed,
-        (_, Timing::AxisFeed) => {
+        (BlockKind::Reorientation, _, Timing::TipFeed) => at_axis_speed,
+        (BlockKind::Feed, _, Timing::TipFeed) => length / speed,
+        (_, _, Timing::AxisFeed) => {
             let sum = |rotary: bool| {
                 machine
                     .axes
@@ -255,21 +278,25 @@ fn push_block(
                     .sqrt()
             };
             let linear = sum(false);
-            if linear > 0.0 { linear / feed } else { sum(true).to_degrees() / feed }
+            if linear > 0.0 { linear / speed } else { sum(true).to_degrees() / speed }
         }
     };
+    // In inverse time the feed is what the duration gives the tip.
+    let speed = match feed {
+        Feed::InverseTime(f, _) if f > 0.0 && nominal > 0.0 => length / nominal,
+        _ => speed,
+    };
+    state.feed = Some(speed);
     let previous_rapid = out.kind.last().is_some_and(|k| *k == BlockKind::Rapid);
     out.stop_before.push(state.stop || rapid || previous_rapid);
     out.dwell_before.push(state.dwell);
-    out.cl.push(matches!(step.kind, StepKind::Cl | StepKind::Reengage));
-    out.run_break.push(state.run_break);
-    state.run_break = false;
+    out.cl.push(matches!(to.kind, StepKind::Cl | StepKind::Reengage));
     state.stop = false;
     state.dwell = 0.0;
     out.length.push(length);
-    out.feed.push(feed);
+    out.feed.push(speed);
     out.nominal.push(nominal);
     out.kind.push(kind);
-    out.step.push(k);
-    out.push_position(b, &step.pose);
+    out.step.push(to.step);
+    out.push_position(b, &to.pose);
 }

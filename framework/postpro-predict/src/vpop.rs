@@ -18,7 +18,7 @@
 //! Unlike the block-wise model, nothing ties a block to one interpolation cycle, and the whole
 //! path is seen ahead.
 
-use crate::moves::{BlockKind, Blocks};
+use crate::moves::{BlockKind, Blocks, SplineRun};
 use crate::plan::{Limit, Piece, Track, TrackBuilder};
 use postpro_kin::Kinematics;
 use postpro_kin::bspline::{self, Spline};
@@ -66,31 +66,18 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
 pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -> (Track, Vec<usize>, Curves) {
     let mut b = Builder::new(blocks, machine);
     let mut curves = Curves::default();
+    let mut splines = blocks.splines.iter().peekable();
     let mut i = 0;
     while i < blocks.len() {
-        let feed_move = |k: usize| matches!(blocks.kind[k], BlockKind::Feed | BlockKind::Reorientation);
-        if !feed_move(i) {
-            b.line(i);
+        if let Some(run) = splines.next_if(|s| s.first == i) {
+            b.curve(run, kin, &mut curves);
             curves.segments.resize(b.track.len(), Segment::Line);
-            i += 1;
+            i += run.poses.len() - 1;
             continue;
         }
-        let mut end = i + 1;
-        while end < blocks.len()
-            && feed_move(end)
-            && blocks.feed[end] == blocks.feed[i]
-            && !blocks.run_break[end]
-            && !blocks.stop_before[end]
-        {
-            end += 1;
-        }
-        if !b.curve(i..end, kin, &mut curves) {
-            for k in i..end {
-                b.line(k);
-            }
-        }
+        b.line(i);
         curves.segments.resize(b.track.len(), Segment::Line);
-        i = end;
+        i += 1;
     }
     let (track, owner) = b.track.finish(usize::MAX);
     (track, owner, curves)
@@ -194,34 +181,20 @@ impl<'a> Builder<'a> {
         self.last_line = Some((i, length));
     }
 
-    /// The blocks of `run` as the spline through their CL points; false when the emitter would
-    /// write them as G1 (too few points, or no fit within the tolerance).
-    fn curve(&mut self, run: std::ops::Range<usize>, kin: &dyn Kinematics, curves: &mut Curves) -> bool {
+    /// The blocks of a spline run, along the spline the motion program wrote.
+    fn curve(&mut self, run: &SplineRun, kin: &dyn Kinematics, curves: &mut Curves) {
         let blocks = self.blocks;
-        let start = run.start;
-        let cl: Vec<usize> = run.clone().filter(|&b| blocks.cl[b]).collect();
-        let joints: Vec<_> = std::iter::once(start)
-            .chain(cl.iter().map(|b| b + 1))
-            .map(|p| postpro_kin::Joints::from_slice(blocks.position(p)))
-            .collect();
-        let poses: Vec<_> = std::iter::once(start).chain(cl.iter().map(|b| b + 1)).map(|p| blocks.pose(p)).collect();
-        let policy = &self.machine.policy;
-        let Some((spline, poses, index)) = bspline::fit_indexed(
-            kin,
-            &bspline::Run { joints: &joints, poses: &poses },
-            policy.linearization_tolerance,
-            policy.singular_cone,
-        ) else {
-            return false;
-        };
-        for b in run.clone() {
+        let start = run.first;
+        let count = run.poses.len() - 1;
+        for b in start..start + count {
             self.track.before(blocks.stop_before[b] && b == start, blocks.dwell_before[b]);
         }
         let feed = blocks.feed[start];
         if blocks.kind[start] == BlockKind::Feed {
             self.reference_feed = feed;
         }
-        let params = bspline::chord_params(&poses);
+        let (spline, poses) = (&run.curve, &run.poses);
+        let params = bspline::chord_params(poses);
         let which = curves.splines.len();
         let mut corner = match self.last_line {
             Some((previous, _)) if self.track.last_block() == Some(previous) => {
@@ -236,13 +209,9 @@ impl<'a> Builder<'a> {
             }
             _ => f64::INFINITY,
         };
-        // Data interval `d` ends at run point `r` (the CL block cl[r - 1]) once index[r] > d.
-        let mut r = 1;
+        // Data interval `d` ends at data point d + 1: block start + d.
         for d in 0..params.len() - 1 {
-            while r < index.len() && index[r] <= d {
-                r += 1;
-            }
-            let block = cl[(r - 1).min(cl.len() - 1)];
+            let block = start + d;
             // Four pieces per data interval, also cut at the knots: within a knot span the
             // third derivative is constant and the second linear, so their worst is at the ends.
             const PIECES: usize = 4;
@@ -253,17 +222,16 @@ impl<'a> Builder<'a> {
             cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * (s1 - s0).max(1e-9));
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
-                let piece = self.curve_piece(&spline, kin, from, to, feed);
+                let piece = self.curve_piece(spline, kin, from, to, feed);
                 self.track.push(piece, block, corner);
                 curves.segments.resize(self.track.len() - 1, Segment::Line);
                 curves.segments.push(Segment::Curve { spline: which, from });
                 corner = f64::INFINITY;
             }
         }
-        curves.splines.push(spline);
+        curves.splines.push(spline.clone());
         curves.start_block.push(start);
         self.last_line = None;
-        true
     }
 
     /// The caps of the spline between parameters `from` and `to`.

@@ -178,13 +178,19 @@ pub(crate) struct Writing<'a> {
 /// what it wrote. `stage` is told what is being done (`""` when done).
 pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn(&str)) -> ExitCode {
     let (mode, dialect, template, output) = (how.mode, how.dialect, how.template, how.output);
-    let kin = job.solver.kinematics();
-    let (path, solved, machine, source) = (&job.path, &job.solved, &job.machine, &job.source);
+    let (solved, machine, source) = (&job.solved, &job.machine, &job.source);
+    let program = match job.motion(mode, dialect) {
+        Ok(program) => program,
+        Err(code) => {
+            stage("");
+            return code;
+        }
+    };
     let (prediction, annotations) = match how.prediction {
         None => (None, Vec::new()),
         Some(args) => {
             stage("predicting the feed");
-            let predicted = predict::run(job, mode, args, false);
+            let predicted = predict::run(job, &program, args, false);
             for note in &predicted.notes {
                 let at = job.solved.steps[note.step].span.start as usize;
                 eprintln!("note: {}: prediction: {}", source.location(at), note.text);
@@ -197,7 +203,6 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
     stage("writing the program");
     let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
     let options = Options {
-        mode,
         program_name: how.program_name.clone(),
         source_name: source.name().to_string(),
         block_numbers: how.block_numbers,
@@ -205,7 +210,7 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
         annotations,
     };
     let write =
-        |out: &mut dyn Write| write_program(path, solved, kin, dialect, &options, &template.0, &template.1, out);
+        |out: &mut dyn Write| write_program(&program, machine, dialect, &options, &template.0, &template.1, out);
     let written = if output == Path::new("-") {
         let stdout = std::io::stdout();
         let mut out = std::io::BufWriter::new(stdout.lock());

@@ -6,7 +6,8 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use postpro_cl::{Source, ToolPath};
-use postpro_kin::{Solved, solve};
+use postpro_emit::{Dialect, Mode};
+use postpro_kin::{Kinematics, Solved, solve};
 use postpro_machine::model::Machine;
 use postpro_plugins::Solver;
 
@@ -68,4 +69,30 @@ pub(crate) fn prepare(
         fail(&report::render_with_source(e, source.name(), source.text()), 1)
     })?;
     Ok(Job { source, path, machine, solver, solved })
+}
+
+impl Job {
+    /// The motion program of this job in `mode`, for `dialect`'s feed ranges; an error is
+    /// printed with the CL source.
+    pub(crate) fn motion(&self, mode: Mode, dialect: &Dialect) -> Result<postpro_motion::Program, ExitCode> {
+        motion_of(&self.path, &self.solved, self.solver.kinematics(), mode, dialect)
+            .map_err(|e| fail(&report::render_with_source(e, self.source.name(), self.source.text()), 1))
+    }
+}
+
+/// The motion program of a solved tool path in `mode`, for `dialect`'s feed ranges.
+pub(crate) fn motion_of(
+    path: &ToolPath,
+    solved: &Solved,
+    kin: &dyn Kinematics,
+    mode: Mode,
+    dialect: &Dialect,
+) -> Result<postpro_motion::Program, postpro_motion::MotionError> {
+    postpro_motion::collect(path, solved, kin, &postpro_emit::motion_options(dialect, mode))
+}
+
+/// The dialect of a machine, or the first one postpro knows when the machine names none it
+/// knows (its feed ranges are only needed for the prediction's motion program).
+pub(crate) fn machine_dialect(machine: &Machine) -> &'static Dialect {
+    postpro_emit::dialect(&machine.dialect).unwrap_or(&postpro_emit::DIALECTS[0])
 }

@@ -128,7 +128,11 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         return fail(&format!("error: {} has no feed path to orient\n", job.source.name()), 1);
     }
     let mode = args.mode.mode();
-    let original_prediction = predict::run(&job, mode, &args.prediction, false);
+    let original_program = match job.motion(mode, crate::job::machine_dialect(machine)) {
+        Ok(program) => program,
+        Err(code) => return code,
+    };
+    let original_prediction = predict::run(&job, &original_program, &args.prediction, false);
     let original_cycle = original_prediction.totals().cycle_time;
 
     // Per path: the program's tool axis, the set-up it was solved in, and the best candidate:
@@ -197,7 +201,8 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         let applied = postpro_orient::apply(&job.path, setups);
         let solved = postpro_kin::solve(kin, &applied.path, &machine.policy)
             .map_err(|e| format!("the re-oriented program does not solve: {e}"))?;
-        let prediction = predict::run_solved(&applied.path, &solved, kin, mode, &args.prediction);
+        let prediction = predict::run_solved(&applied.path, &solved, kin, mode, &args.prediction)
+            .map_err(|e| format!("the re-oriented program cannot be written: {e}"))?;
         let path_times = path_times(&prediction, &solved, &spans);
         Ok(Variant { path: applied.path.clone(), solved, cycle: prediction.totals().cycle_time, path_times, applied })
     };

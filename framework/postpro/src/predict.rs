@@ -99,13 +99,20 @@ pub(crate) struct PredictArgs {
 }
 
 /// Predicts the motion of a solved job as the program of `mode` asks for it.
-pub(crate) fn run(job: &Job, mode: Mode, args: &PredictionArgs, samples: bool) -> Prediction {
-    run_with(job, mode, args.planner(), args.threshold(), samples, None)
+pub(crate) fn run(job: &Job, program: &postpro_motion::Program, args: &PredictionArgs, samples: bool) -> Prediction {
+    run_with(job, program, args.planner(), args.threshold(), samples, None)
 }
 
-fn run_with(job: &Job, mode: Mode, planner: Planner, threshold: f64, samples: bool, period: Option<f64>) -> Prediction {
-    let options = options(mode, planner, threshold, samples, period);
-    predict_solved(&job.path, &job.solved, job.solver.kinematics(), mode, &options)
+fn run_with(
+    job: &Job,
+    program: &postpro_motion::Program,
+    planner: Planner,
+    threshold: f64,
+    samples: bool,
+    period: Option<f64>,
+) -> Prediction {
+    let options = options(program.mode, planner, threshold, samples, period);
+    predict_program(program, job.solver.kinematics(), &options)
 }
 
 fn options(
@@ -118,15 +125,13 @@ fn options(
     postpro_predict::Options { planner, threshold, samples, period, splines: mode == Mode::Bspline }
 }
 
-fn predict_solved(
-    path: &postpro_cl::ToolPath,
-    solved: &postpro_kin::Solved,
+fn predict_program(
+    program: &postpro_motion::Program,
     kin: &dyn postpro_kin::Kinematics,
-    mode: Mode,
     options: &postpro_predict::Options,
 ) -> Prediction {
-    let timing = if mode == Mode::G1 { Timing::AxisFeed } else { Timing::TipFeed };
-    let blocks = postpro_predict::blocks(path, solved, kin.machine(), timing);
+    let timing = if program.mode.feeds_the_tip() { Timing::TipFeed } else { Timing::AxisFeed };
+    let blocks = postpro_predict::blocks(program, kin.machine(), timing);
     postpro_predict::predict(&blocks, kin, options)
 }
 
@@ -137,9 +142,10 @@ pub(crate) fn run_solved(
     kin: &dyn postpro_kin::Kinematics,
     mode: Mode,
     args: &PredictionArgs,
-) -> Prediction {
+) -> Result<Prediction, postpro_motion::MotionError> {
+    let program = crate::job::motion_of(path, solved, kin, mode, crate::job::machine_dialect(kin.machine()))?;
     let options = options(mode, args.planner(), args.threshold(), false, None);
-    predict_solved(path, solved, kin, mode, &options)
+    Ok(predict_program(&program, kin, &options))
 }
 
 /// The slowdown comments for the NC program: one per run of blocks below the threshold.
@@ -208,9 +214,13 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some();
     let mode = args.mode.mode();
     let planner = effective(args.prediction.planner(), mode);
+    let program = match job.motion(mode, crate::job::machine_dialect(&job.machine)) {
+        Ok(program) => program,
+        Err(code) => return code,
+    };
     let started = std::time::Instant::now();
     let prediction =
-        run_with(&job, mode, planner, args.prediction.threshold(), samples, args.period.map(|ms| ms / 1000.0));
+        run_with(&job, &program, planner, args.prediction.threshold(), samples, args.period.map(|ms| ms / 1000.0));
     if args.timing {
         let seconds = started.elapsed().as_secs_f64();
         let (blocks, steps) = (prediction.blocks.len() as f64, prediction.totals().samples as f64);

@@ -709,21 +709,24 @@ fn the_main_job_marks_the_slowdowns_of_the_vpop_planner() {
     main_job_marks_the_slowdowns("vpop");
 }
 
-/// A move with no feed programmed is predicted at the controller's largest feed, and said so:
-/// in the table, in the JSON, and on the main job's standard error (file:line:column).
+/// A feed move before any feed is programmed is never written nor predicted as if it had one:
+/// an error naming its line (file:line:column) and what to set, with nothing written.
 #[test]
-fn a_move_without_a_feed_is_predicted_at_the_largest_feed_and_said_so() {
+fn a_move_without_a_feed_is_an_error_naming_its_line() {
     let dir = scratch("no-feed");
     std::fs::write(dir.join("nofeed.cl"), "GOTO/0,0,0\nGOTO/10,0,0\nFEDRAT/MMPM,1000\nGOTO/20,0,0\n").expect("write");
-    let o = postpro(&["predict", "nofeed.cl", "--machine", MACHINE, "--json", "p.json"], &dir);
-    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
-    let note = "no feed programmed: predicted at the largest feed";
-    assert!(stdout(&o).contains(&format!("note: line 2: {note}")), "{}", stdout(&o));
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("p.json")).expect("json")).expect("parses");
-    assert_eq!(json["notes"][0]["line"], 2, "{}", json["notes"]);
-    assert_eq!(json["notes"][0]["text"], note);
-    let o = postpro(&["--machine", MACHINE, "nofeed.cl", "-o", "nofeed.mpf"], &dir);
-    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
-    assert!(stderr(&o).contains(&format!("note: nofeed.cl:2:1: prediction: {note}")), "{}", stderr(&o));
+    for args in [
+        &["predict", "nofeed.cl", "--machine", MACHINE, "--json", "p.json"][..],
+        &["--machine", MACHINE, "nofeed.cl", "-o", "nofeed.mpf"][..],
+    ] {
+        let o = postpro(args, &dir);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: stderr:\n{}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains("a feed move with no feed programmed before it"), "{err}");
+        assert!(err.contains("[nofeed.cl:1:1]"), "{err}");
+        assert!(err.contains("program a FEDRAT before the first feed move"), "{err}");
+    }
+    let written: Vec<String> =
+        files(&dir).into_iter().filter(|f| f.starts_with("p.") || f.starts_with("nofeed.")).collect();
+    assert_eq!(written, ["nofeed.cl"], "nothing written");
 }
