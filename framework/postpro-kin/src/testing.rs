@@ -68,6 +68,8 @@ pub(crate) fn machine(rotaries: &[(&str, [f64; 3], [f64; 3], bool)], solver: Sol
             linearization_tolerance: 0.01,
         },
         solver,
+        clearance: Clearance::SafeZ(2000.0),
+        units: ProgramUnits::Mm,
     }
 }
 

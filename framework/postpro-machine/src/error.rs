@@ -1,11 +1,14 @@
 //! The crate's one error type, [`MachineError`]: thiserror for the message, miette for the
 //! rendering (the file name, line and column, the source line, a caret on the offending value
-//! and a label saying what was expected).
+//! and a label saying what was expected). The same [`DefinitionError`] serves the three file
+//! formats of the crate ([`FileKind`]: machine definitions, set-ups and tool tables); a
+//! [`Skipped`] file is a warning that wraps the error that made the registry pass it over.
 
+use std::fmt;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use miette::{NamedSource, SourceSpan};
+use miette::{Diagnostic, LabeledSpan, NamedSource, Severity, SourceCode, SourceSpan};
 
 use crate::locate::{Seg, Span, collection_span, locate, offset_of, second_key, span_at};
 use crate::registry::Origin;
@@ -43,6 +46,43 @@ pub enum MachineError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Clash(Box<ClashError>),
+
+    /// A name or alias that two or more definitions claim: it finds none of them.
+    #[error("the machine name `{name}` is ambiguous: {}", claimants(claims))]
+    #[diagnostic(
+        code(machine::ambiguous),
+        help(
+            "rename one of the machines or drop the alias (or remove the file you do not want); `postpro machines` lists every machine with its origin"
+        )
+    )]
+    Ambiguous {
+        /// The name asked for.
+        name: String,
+        /// Each definition that claims it: its machine name and where it comes from, first
+        /// loaded first.
+        claims: Vec<(String, Origin)>,
+    },
+
+    /// A tool table whose file name ends in neither `.yaml`, `.yml` nor `.csv`.
+    #[error("cannot tell the format of the tool table `{}`", path.display())]
+    #[diagnostic(
+        code(machine::tool_table_format),
+        help("a tool table is YAML (`.yaml`, `.yml`) or CSV (`.csv`), by its file name's extension")
+    )]
+    ToolTableFormat {
+        /// The file.
+        path: PathBuf,
+    },
+}
+
+/// ``machine `a` (built in) and machine `b` (dir/b.yaml) both claim it``
+fn claimants(claims: &[(String, Origin)]) -> String {
+    let each: Vec<String> = claims.iter().map(|(m, o)| format!("machine `{m}` ({o})")).collect();
+    match each.as_slice() {
+        [a, b] => format!("{a} and {b} both claim it"),
+        [init @ .., last] if init.len() > 1 => format!("{} and {last} all claim it", init.join(", ")),
+        _ => format!("{} claims it", each.concat()),
+    }
 }
 
 /// ``; did you mean `a` or `b`?``
@@ -57,12 +97,35 @@ fn did_you_mean(suggestions: &[String]) -> String {
     }
 }
 
-/// A definition that does not read or does not validate: where, what is wrong, what was
-/// expected.
-#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+/// The file formats whose errors a [`DefinitionError`] reports; each has its diagnostic code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileKind {
+    /// A machine definition (`machine::definition`).
+    Machine,
+    /// A set-up file (`machine::setup`).
+    Setup,
+    /// A tool table, YAML or CSV (`machine::tool_table`).
+    ToolTable,
+}
+
+impl FileKind {
+    /// The diagnostic code.
+    pub fn code(self) -> &'static str {
+        match self {
+            FileKind::Machine => "machine::definition",
+            FileKind::Setup => "machine::setup",
+            FileKind::ToolTable => "machine::tool_table",
+        }
+    }
+}
+
+/// A file of one of the crate's formats that does not read or does not validate: where, what is
+/// wrong, what was expected.
+#[derive(Debug, thiserror::Error)]
 #[error("{message}")]
-#[diagnostic(code(machine::definition))]
 pub struct DefinitionError {
+    /// Which format the file is in (it gives the diagnostic code).
+    pub kind: FileKind,
     /// The file name as shown (`machine-defs/maho600e.yaml`).
     pub file: String,
     /// What is wrong (`axes[3].vmax: unknown unit `m/sec``).
@@ -70,16 +133,13 @@ pub struct DefinitionError {
     /// What was expected: the label under the caret.
     pub expected: String,
     /// How to fix it, where there is more to say.
-    #[help]
     pub help: Option<String>,
-    /// The definition's text, named after the file.
-    #[source_code]
+    /// The file's text, named after the file.
     pub source_code: NamedSource<Arc<str>>,
     /// The offending value.
-    #[label("{expected}")]
     pub span: SourceSpan,
-    /// A second place that explains the first (where an unclosed collection starts).
-    #[label("{context_label}")]
+    /// A second place that explains the first (where an unclosed collection starts, where a
+    /// duplicated tool was first defined).
     pub context_span: Option<SourceSpan>,
     /// What is at `context_span`.
     pub context_label: String,
@@ -93,6 +153,68 @@ impl DefinitionError {
     /// `file:line:column: message (expected)` on one line.
     pub fn one_line(&self) -> String {
         format!("{}:{}:{}: {} ({})", self.file, self.line, self.column, self.message, self.expected)
+    }
+}
+
+// By hand rather than derived: the code depends on the file's kind.
+impl Diagnostic for DefinitionError {
+    fn code<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        Some(Box::new(self.kind.code()))
+    }
+
+    fn help<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        self.help.as_ref().map(|h| Box::new(h) as Box<dyn fmt::Display>)
+    }
+
+    fn source_code(&self) -> Option<&dyn SourceCode> {
+        Some(&self.source_code)
+    }
+
+    fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
+        let main = LabeledSpan::new_with_span(Some(self.expected.clone()), self.span);
+        let context = self.context_span.map(|s| LabeledSpan::new_with_span(Some(self.context_label.clone()), s));
+        Some(Box::new(std::iter::once(main).chain(context)))
+    }
+}
+
+/// A file the registry passed over, and why: a warning, so that the other machines still load.
+#[derive(Debug, thiserror::Error)]
+#[error("skipped `{}`: {error}", path.display())]
+pub struct Skipped {
+    /// The file (or folder) passed over.
+    pub path: PathBuf,
+    /// Why.
+    pub error: MachineError,
+}
+
+// The error's diagnostic (code, source, labels, help) with the severity of a warning.
+impl Diagnostic for Skipped {
+    fn code<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        self.error.code()
+    }
+
+    fn severity(&self) -> Option<Severity> {
+        Some(Severity::Warning)
+    }
+
+    fn help<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        self.error.help()
+    }
+
+    fn url<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        self.error.url()
+    }
+
+    fn source_code(&self) -> Option<&dyn SourceCode> {
+        self.error.source_code()
+    }
+
+    fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
+        self.error.labels()
+    }
+
+    fn related<'a>(&'a self) -> Option<Box<dyn Iterator<Item = &'a dyn Diagnostic> + 'a>> {
+        self.error.related()
     }
 }
 
@@ -127,19 +249,27 @@ pub struct ClashError {
 /// The text of one definition and its shown name, to build errors that point into it.
 #[derive(Clone, Debug)]
 pub(crate) struct Doc {
+    pub(crate) kind: FileKind,
     pub(crate) file: String,
     pub(crate) text: Arc<str>,
 }
 
 impl Doc {
+    /// A machine definition.
     pub(crate) fn new(file: &str, text: &str) -> Doc {
-        Doc { file: file.to_string(), text: Arc::from(text) }
+        Doc::of(FileKind::Machine, file, text)
+    }
+
+    /// A file of any kind.
+    pub(crate) fn of(kind: FileKind, file: &str, text: &str) -> Doc {
+        Doc { kind, file: file.to_string(), text: Arc::from(text) }
     }
 
     /// An error at `span`.
     pub(crate) fn error_at(&self, span: Span, message: String, expected: String, help: Option<String>) -> MachineError {
         let (line, column) = line_column(&self.text, span.offset);
         MachineError::Definition(Box::new(DefinitionError {
+            kind: self.kind,
             file: self.file.clone(),
             message,
             expected,
@@ -151,6 +281,22 @@ impl Doc {
             line,
             column,
         }))
+    }
+
+    /// An error at `span` with a second labelled place that explains it.
+    pub(crate) fn error_with_context(
+        &self,
+        span: Span,
+        message: String,
+        expected: String,
+        (context, label): (Span, String),
+    ) -> MachineError {
+        let mut error = self.error_at(span, message, expected, None);
+        if let MachineError::Definition(e) = &mut error {
+            e.context_span = Some(SourceSpan::new(context.offset.into(), context.len));
+            e.context_label = label;
+        }
+        error
     }
 
     /// An error at the value at `path` (or its nearest existing ancestor).
@@ -257,7 +403,11 @@ fn split_expected(message: &str) -> (String, String) {
     }
     if let Some(i) = message.find(", expected ") {
         let what = message[..i].to_string();
-        let expected = message[i + 2..].to_string();
+        let mut expected = message[i + 2..].to_string();
+        // serde names the Rust type of a mapping (`expected struct ToolFile`).
+        if expected.starts_with("expected struct ") {
+            expected = "expected a mapping of `key: value` lines".to_string();
+        }
         return (what, expected);
     }
     if let Some(i) = message.find("missing key `") {
@@ -309,6 +459,10 @@ mod tests {
 
     #[test]
     fn serde_words_become_yaml_words() {
+        assert_eq!(
+            split_expected("invalid type: sequence, expected struct SetupFile"),
+            ("invalid type: sequence".to_string(), "expected a mapping of `key: value` lines".to_string())
+        );
         assert_eq!(
             split_expected("policy.branch: invalid value: string \"nearest\", expected `closest`"),
             ("policy.branch: invalid value `nearest`".to_string(), "expected `closest`".to_string())

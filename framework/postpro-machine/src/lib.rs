@@ -11,7 +11,14 @@
 //! 3. [`model`]: the validated [`Machine`] (mm, rad, s) that kinematics and prediction code
 //!    against. They never see the serde types.
 //!
-//! [`Registry`] holds the built-in machines and the user's files, found by name or alias.
+//! [`Registry`] holds the built-in machines and the user's files, found by name or alias; a file
+//! that does not load is [`Skipped`] with its diagnostic, and a name two definitions claim is
+//! refused as ambiguous.
+//!
+//! Two more file formats describe a job rather than a machine, read the same way (plain serde
+//! types, one validating conversion, errors at the value): the [`setup`] (work offset, part
+//! origin, units, tool table; `docs/setup.md`) and the [`tools`] table (YAML or CSV).
+//!
 //! Every error is a [`MachineError`], which miette renders with the file, the source line, a
 //! caret on the value and what was expected.
 //!
@@ -24,14 +31,17 @@
 //! ```
 
 mod error;
+#[macro_use]
 mod locate;
 pub mod model;
 pub mod quantity;
 pub mod raw;
 mod registry;
+pub mod setup;
+pub mod tools;
 pub mod validate;
 
-pub use error::{ClashError, DefinitionError, MachineError};
+pub use error::{ClashError, DefinitionError, FileKind, MachineError, Skipped};
 pub use model::Machine;
 pub use registry::{BUILTIN, Entry, Origin, Registry};
 

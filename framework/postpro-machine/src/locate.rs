@@ -35,6 +35,28 @@ impl<'a> From<&'a str> for Seg<'a> {
     }
 }
 
+/// A path into the document: `path!["axes", i, "vmax"]` (visible in the modules declared after
+/// this one, by `#[macro_use]`).
+macro_rules! path {
+    ($($seg:expr),* $(,)?) => { &[$(crate::locate::Seg::from($seg)),*][..] };
+}
+
+/// `axes[3].vmax`, as the YAML library writes paths.
+pub(crate) fn path_text(path: &[Seg<'_>]) -> String {
+    let mut out = String::new();
+    for seg in path {
+        match seg {
+            Seg::Key(k) if out.is_empty() => out.push_str(k),
+            Seg::Key(k) => {
+                out.push('.');
+                out.push_str(k);
+            }
+            Seg::Index(i) => out.push_str(&format!("[{i}]")),
+        }
+    }
+    out
+}
+
 /// A byte range in the text.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Span {

@@ -26,6 +26,70 @@ pub struct Machine {
     pub policy: PolicyDefaults,
     /// Which IKT solver to use.
     pub solver: SolverKind,
+    /// Where the tool goes to re-orient the rotary axes and around tool changes.
+    pub clearance: Clearance,
+    /// The program's units unless the set-up or the command line says otherwise.
+    pub units: ProgramUnits,
+}
+
+/// Where the tool goes to re-orient the rotary axes and around tool changes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Clearance {
+    /// A safe height in machine coordinates: the value (mm) of the linear axis parallel to the
+    /// spindle direction ([`Machine::spindle_linear_axis`]), written with the dialect's
+    /// machine-frame word (G53, SUPA, M91).
+    SafeZ(f64),
+    /// A retract by this distance (mm) along the tool axis, from where the tool is.
+    Retract(f64),
+}
+
+impl std::fmt::Display for Clearance {
+    /// As in the definition file: `safe_z: 500 mm` or `retract: 50 mm`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Clearance::SafeZ(z) => write!(f, "safe_z: {} mm", z + 0.0),
+            Clearance::Retract(d) => write!(f, "retract: {d} mm"),
+        }
+    }
+}
+
+/// The units an NC program is written in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ProgramUnits {
+    /// Millimetres (G21, G71, `MM`).
+    #[default]
+    Mm,
+    /// Inches (G20, G70, `INCH`).
+    Inch,
+}
+
+impl ProgramUnits {
+    /// The text users write: `mm` or `inch`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ProgramUnits::Mm => "mm",
+            ProgramUnits::Inch => "inch",
+        }
+    }
+}
+
+impl std::fmt::Display for ProgramUnits {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl std::str::FromStr for ProgramUnits {
+    type Err = String;
+
+    /// `mm` or `inch`, without case.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            t if t.eq_ignore_ascii_case("mm") => Ok(ProgramUnits::Mm),
+            t if t.eq_ignore_ascii_case("inch") => Ok(ProgramUnits::Inch),
+            t => Err(format!("unknown units `{t}`: expected `mm` or `inch`")),
+        }
+    }
 }
 
 /// Which IKT solver a machine uses.
@@ -136,6 +200,12 @@ impl Chain {
     }
 }
 
+/// [`Machine::spindle_linear_axis`], for validation (before the machine exists).
+pub(crate) fn spindle_linear_axis(axes: &[Axis], chain: &Chain) -> Option<usize> {
+    let parallel = (1e-6f64).cos(); // within 1e-6 rad
+    chain.linear.iter().copied().find(|&i| axes[i].direction.dot(&chain.tool_direction).abs() >= parallel)
+}
+
 /// What the machine's shape is, for `postpro machines`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Topology {
@@ -169,6 +239,12 @@ impl Machine {
     /// The index of the axis with this letter.
     pub fn axis_index(&self, letter: &str) -> Option<usize> {
         self.axes.iter().position(|a| a.letter.eq_ignore_ascii_case(letter))
+    }
+
+    /// The linear axis parallel (or antiparallel) to the spindle direction at all-zero: the axis
+    /// of [`Clearance::SafeZ`] (index into `axes`), if there is one.
+    pub fn spindle_linear_axis(&self) -> Option<usize> {
+        spindle_linear_axis(&self.axes, &self.chain)
     }
 }
 

@@ -229,14 +229,19 @@ pub enum QuantityError {
 }
 
 impl QuantityError {
+    /// What is wrong: ``unknown unit `m/sec` ``.
+    pub fn message(&self) -> String {
+        match self {
+            QuantityError::NotAQuantity(t) => format!("`{t}` is not a number with a unit"),
+            QuantityError::NotFinite(t) => format!("`{t}` is not a finite number"),
+            QuantityError::UnknownUnit(u) => format!("unknown unit `{u}`"),
+            QuantityError::WrongDimension { text, found } => format!("`{text}` is {found}"),
+        }
+    }
+
     /// The message with what was expected: `unknown unit `m/sec`, expected a linear velocity …`.
     pub fn with_expected(&self, expected: &str) -> String {
-        match self {
-            QuantityError::NotAQuantity(t) => format!("`{t}` is not a number with a unit, {expected}"),
-            QuantityError::NotFinite(t) => format!("`{t}` is not a finite number, {expected}"),
-            QuantityError::UnknownUnit(u) => format!("unknown unit `{u}`, {expected}"),
-            QuantityError::WrongDimension { text, found } => format!("`{text}` is {found}, {expected}"),
-        }
+        format!("{}, {expected}", self.message())
     }
 }
 

@@ -8,7 +8,9 @@
 //! there), `home: 0`, `decimals: 3`, `chain.part: []`, `chain.tool: []`,
 //! `chain.part_origin: { position: [0, 0, 0] }` (axes parallel to the base frame),
 //! `chain.tool_length: 0 mm`, the whole `cnc` section ([`Cnc::default`]) and the whole `policy`
-//! section ([`Policy::default`]), each key of which may also be left out on its own.
+//! section ([`Policy::default`]), each key of which may also be left out on its own;
+//! `clearance` (a safe Z at the top of the travel of the linear axis along the spindle, computed
+//! by [`crate::validate`]) and `units: mm`.
 
 use std::fmt;
 
@@ -44,6 +46,13 @@ pub struct MachineFile {
     /// IKT policy defaults (default: [`Policy::default`]).
     #[serde(default)]
     pub policy: Policy,
+    /// `{safe_z: LENGTH}` or `{retract: LENGTH}` (default: a safe Z at the top of the travel of
+    /// the linear axis along the spindle).
+    #[serde(default)]
+    pub clearance: Option<Clearance>,
+    /// The program's units by default (default `mm`).
+    #[serde(default)]
+    pub units: Units,
 }
 
 /// `solver:`.
@@ -366,6 +375,80 @@ impl<'de> Deserialize<'de> for OnDiscontinuity {
     }
 }
 
+/// `clearance:`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Clearance {
+    /// `{safe_z: LENGTH}`: a machine coordinate of the linear axis along the spindle.
+    SafeZ(Length),
+    /// `{retract: LENGTH}`: a distance along the tool axis.
+    Retract(Length),
+}
+
+/// The key of `clearance: {…}`.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum ClearanceKey {
+    SafeZ,
+    Retract,
+}
+
+impl<'de> Deserialize<'de> for Clearance {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct ClearanceVisitor;
+        impl<'de> Visitor<'de> for ClearanceVisitor {
+            type Value = Clearance;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("`{safe_z: LENGTH}` or `{retract: LENGTH}`")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Clearance, A::Error> {
+                Ok(match one_entry(map, &self)? {
+                    (ClearanceKey::SafeZ, z) => Clearance::SafeZ(z),
+                    (ClearanceKey::Retract, d) => Clearance::Retract(d),
+                })
+            }
+        }
+        deserializer.deserialize_map(ClearanceVisitor)
+    }
+}
+
+/// The one `key: value` entry of a mapping such as `{retract: 50 mm}`; none or more is an error
+/// saying what was `expected`.
+fn one_entry<'de, A, K, V>(mut map: A, expected: &dyn de::Expected) -> Result<(K, V), A::Error>
+where
+    A: MapAccess<'de>,
+    K: Deserialize<'de>,
+    V: Deserialize<'de>,
+{
+    let Some(key) = map.next_key::<K>()? else {
+        return Err(de::Error::invalid_length(0, expected));
+    };
+    let value = map.next_value::<V>()?;
+    if map.next_key::<de::IgnoredAny>()?.is_some() {
+        return Err(de::Error::invalid_length(2, expected));
+    }
+    Ok((key, value))
+}
+
+/// `units:` of a machine or a set-up.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Units {
+    /// `mm`.
+    #[default]
+    Mm,
+    /// `inch`.
+    Inch,
+}
+
+impl From<Units> for crate::model::ProgramUnits {
+    fn from(u: Units) -> Self {
+        match u {
+            Units::Mm => crate::model::ProgramUnits::Mm,
+            Units::Inch => crate::model::ProgramUnits::Inch,
+        }
+    }
+}
+
 impl MachineFile {
     /// Deserializes a definition (no semantic checks; see [`crate::validate`]).
     pub fn from_yaml(text: &str) -> Result<MachineFile, serde_yaml::Error> {
@@ -396,6 +479,25 @@ mod tests {
             OnDiscontinuity::Retract(Length(5.0))
         );
         assert!(serde_yaml::from_str::<OnDiscontinuity>("{retract: 5 deg}").is_err());
+    }
+
+    #[test]
+    fn clearance_forms() {
+        assert_eq!(serde_yaml::from_str::<Clearance>("{safe_z: 0.5 m}").unwrap(), Clearance::SafeZ(Length(500.0)));
+        assert_eq!(serde_yaml::from_str::<Clearance>("retract: 2 in").unwrap(), Clearance::Retract(Length(50.8)));
+        let e = serde_yaml::from_str::<Clearance>("{safe-z: 5}").unwrap_err().to_string();
+        assert!(e.contains("unknown variant `safe-z`, expected `safe_z` or `retract`"), "{e}");
+        assert!(serde_yaml::from_str::<Clearance>("{safe_z: 5, retract: 5}").is_err());
+        assert!(serde_yaml::from_str::<Clearance>("{}").is_err());
+        assert!(serde_yaml::from_str::<Clearance>("safe_z").is_err());
+        assert!(serde_yaml::from_str::<Clearance>("{retract: 5 deg}").is_err());
+    }
+
+    #[test]
+    fn units_forms() {
+        assert_eq!(serde_yaml::from_str::<Units>("inch").unwrap(), Units::Inch);
+        let e = serde_yaml::from_str::<Units>("inches").unwrap_err().to_string();
+        assert!(e.contains("unknown variant `inches`, expected `mm` or `inch`"), "{e}");
     }
 
     #[test]

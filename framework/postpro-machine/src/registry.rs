@@ -2,9 +2,13 @@
 //!
 //! The built-in definitions (`machine-defs/*.yaml` and `machine-defs/examples/*.yaml`) are
 //! compiled into the binary; users add files ([`Registry::load_file`]) and folders
-//! ([`Registry::load_dir`]); a plugin loader will add machines with [`Registry::add`]. Names and
-//! aliases are compared without case and must be unique across the registry: a later definition
-//! that reuses a name or alias is refused with an error naming both origins.
+//! ([`Registry::load_dir`], [`Registry::with_dirs`]); a plugin loader adds machines with
+//! [`Registry::load_str`] and [`Registry::add`]. Names and aliases are compared without case and
+//! must be unique across the registry: a later definition that reuses a name or alias is refused
+//! with an error naming both origins, and the name becomes **ambiguous**: [`Registry::find`]
+//! refuses it, naming every definition that claims it, instead of quietly taking the first.
+//! A folder's files are loaded one by one: a file that does not load is returned as a
+//! [`Skipped`] warning (with its diagnostic) and the others load all the same.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -12,7 +16,7 @@ use std::sync::Arc;
 
 use miette::{NamedSource, SourceSpan};
 
-use crate::error::{ClashError, MachineError};
+use crate::error::{ClashError, MachineError, Skipped};
 use crate::locate::{Seg, locate};
 use crate::model::Machine;
 
@@ -92,6 +96,16 @@ impl Entry {
 #[derive(Clone, Debug, Default)]
 pub struct Registry {
     entries: Vec<Entry>,
+    /// Names (and aliases) that more than one definition claims.
+    ambiguous: Vec<Ambiguity>,
+}
+
+/// A name claimed by more than one definition.
+#[derive(Clone, Debug)]
+struct Ambiguity {
+    name: String,
+    /// Machine name and origin of each claimant, first loaded first.
+    claims: Vec<(String, Origin)>,
 }
 
 impl Registry {
@@ -110,6 +124,18 @@ impl Registry {
         Ok(registry)
     }
 
+    /// The built-in machines, then every definition file of `dirs` in order
+    /// ([`Registry::load_dir`]), with the files that were passed over and why. The error is a
+    /// broken built-in (a bug).
+    pub fn with_dirs(dirs: &[PathBuf]) -> Result<(Registry, Vec<Skipped>), MachineError> {
+        let mut registry = Registry::builtin()?;
+        let mut skipped = Vec::new();
+        for dir in dirs {
+            skipped.extend(registry.load_dir(dir));
+        }
+        Ok((registry, skipped))
+    }
+
     /// Parses, validates and adds one definition; `file` is the name shown in errors.
     pub fn load_str(&mut self, file: &str, text: &str, origin: Origin) -> Result<&Entry, MachineError> {
         let machine = crate::parse(file, text)?;
@@ -124,12 +150,14 @@ impl Registry {
     }
 
     /// Adds every `*.yaml` and `*.yml` file of a folder (not its subfolders), in file-name order.
-    /// Returns the errors of the files that do not load (and of the folder, if it cannot be
-    /// read); the good files are added all the same.
-    pub fn load_dir(&mut self, dir: &Path) -> Vec<MachineError> {
+    /// Returns the files that do not load, each with its error (a diagnostic in the file, a name
+    /// that another definition claims, an unreadable file), and the folder itself if it cannot
+    /// be read; the good files are added all the same.
+    pub fn load_dir(&mut self, dir: &Path) -> Vec<Skipped> {
+        let skip = |path: &Path, error| Skipped { path: path.to_path_buf(), error };
         let listing = match std::fs::read_dir(dir) {
             Ok(l) => l,
-            Err(source) => return vec![MachineError::Io { path: dir.to_path_buf(), source }],
+            Err(source) => return vec![skip(dir, MachineError::Io { path: dir.to_path_buf(), source })],
         };
         let mut errors = Vec::new();
         let mut files = Vec::new();
@@ -142,13 +170,13 @@ impl Registry {
                         files.push(path);
                     }
                 }
-                Err(source) => errors.push(MachineError::Io { path: dir.to_path_buf(), source }),
+                Err(source) => errors.push(skip(dir, MachineError::Io { path: dir.to_path_buf(), source })),
             }
         }
         files.sort();
         for path in files {
             if let Err(e) = self.load_file(&path) {
-                errors.push(e);
+                errors.push(skip(&path, e));
             }
         }
         errors
@@ -159,39 +187,63 @@ impl Registry {
         self.insert(Entry { machine, origin, source: None })
     }
 
+    /// Adds `entry` unless one of its names is taken; every taken name becomes ambiguous. The
+    /// same machine from the same origin (a file given twice) is the entry already there.
     fn insert(&mut self, entry: Entry) -> Result<&Entry, MachineError> {
+        if let Some(i) = self.entries.iter().position(|e| e.origin == entry.origin && e.machine == entry.machine) {
+            return Ok(&self.entries[i]);
+        }
+        let mut clash = None;
         for (k, name) in entry.names().enumerate() {
-            if let Some(first) = self.entries.iter().find(|e| e.names().any(|n| n.eq_ignore_ascii_case(name))) {
-                let (source_code, span) = match &entry.source {
-                    Some((file, text)) => {
-                        let path: &[Seg<'_>] =
-                            if k == 0 { &[Seg::Key("name")] } else { &[Seg::Key("aliases"), Seg::Index(k - 1)] };
-                        let s = locate(text, path);
-                        (
-                            Some(NamedSource::new(file.clone(), Arc::clone(text))),
-                            Some(SourceSpan::new(s.offset.into(), s.len)),
-                        )
-                    }
-                    None => (None, None),
-                };
-                return Err(MachineError::Clash(Box::new(ClashError {
+            let Some(first) = self.entries.iter().find(|e| e.names().any(|n| n.eq_ignore_ascii_case(name))) else {
+                continue;
+            };
+            let claim = (entry.machine.name.clone(), entry.origin.clone());
+            match self.ambiguous.iter_mut().find(|a| a.name.eq_ignore_ascii_case(name)) {
+                Some(a) => a.claims.push(claim),
+                None => self.ambiguous.push(Ambiguity {
                     name: name.to_string(),
-                    machine: entry.machine.name.clone(),
-                    origin: entry.origin.clone(),
-                    first_machine: first.machine.name.clone(),
-                    first_origin: first.origin.clone(),
-                    source_code,
-                    span,
-                })));
+                    claims: vec![(first.machine.name.clone(), first.origin.clone()), claim],
+                }),
             }
+            if clash.is_none() {
+                clash = Some((k, name, first));
+            }
+        }
+        if let Some((k, name, first)) = clash {
+            let (source_code, span) = match &entry.source {
+                Some((file, text)) => {
+                    let path: &[Seg<'_>] =
+                        if k == 0 { &[Seg::Key("name")] } else { &[Seg::Key("aliases"), Seg::Index(k - 1)] };
+                    let s = locate(text, path);
+                    (
+                        Some(NamedSource::new(file.clone(), Arc::clone(text))),
+                        Some(SourceSpan::new(s.offset.into(), s.len)),
+                    )
+                }
+                None => (None, None),
+            };
+            return Err(MachineError::Clash(Box::new(ClashError {
+                name: name.to_string(),
+                machine: entry.machine.name.clone(),
+                origin: entry.origin.clone(),
+                first_machine: first.machine.name.clone(),
+                first_origin: first.origin.clone(),
+                source_code,
+                span,
+            })));
         }
         self.entries.push(entry);
         Ok(self.entries.last().expect("an entry was just pushed"))
     }
 
-    /// The machine with this name or alias (without case), or [`MachineError::UnknownMachine`]
-    /// with the nearest names.
+    /// The machine with this name or alias (without case); [`MachineError::Ambiguous`] when
+    /// more than one definition claims it, [`MachineError::UnknownMachine`] with the nearest
+    /// names when none does.
     pub fn find(&self, name: &str) -> Result<&Entry, MachineError> {
+        if let Some(a) = self.ambiguous.iter().find(|a| a.name.eq_ignore_ascii_case(name)) {
+            return Err(MachineError::Ambiguous { name: name.to_string(), claims: a.claims.clone() });
+        }
         if let Some(e) = self.entries.iter().find(|e| e.names().any(|n| n.eq_ignore_ascii_case(name))) {
             return Ok(e);
         }
@@ -294,10 +346,26 @@ mod tests {
         let MachineError::Clash(c) = &e else { panic!("{e}") };
         let span = c.span.unwrap();
         assert_eq!(&text[span.offset()..span.offset() + span.len()], "MIKRON");
+        // The name no longer finds the first machine; its other names do.
+        assert_eq!(
+            r.find("mikron").unwrap_err().to_string(),
+            "the machine name `mikron` is ambiguous: machine `mikron-ucp710` (built in) and machine `other` \
+             (mine.yaml) both claim it"
+        );
+        assert_eq!(r.find("mikron-ucp710").unwrap().machine.name, "mikron-ucp710");
         let n = r.entries().len();
         let m = r.find("maho").unwrap().machine.clone();
         let e = r.add(m, Origin::Plugin { library: "libmaho.so".into() }).unwrap_err();
         assert!(e.to_string().ends_with("(plugin libmaho.so) is already used by machine `maho600e` (built in)"), "{e}");
         assert_eq!(r.entries().len(), n);
+        // Both its name and its alias are taken: both are ambiguous.
+        assert!(matches!(r.find("MAHO600E"), Err(MachineError::Ambiguous { .. })));
+        let Err(MachineError::Ambiguous { claims, .. }) = r.find("maho") else { panic!("maho is ambiguous") };
+        assert_eq!(claims[1], ("maho600e".to_string(), Origin::Plugin { library: "libmaho.so".into() }));
+        // A third claimant is named too.
+        let third = maho.replace("name: maho600e", "name: third").replace("solver: closed-form", "solver: generic");
+        assert!(r.load_str("third.yaml", &third, Origin::File("third.yaml".into())).is_err());
+        let e = r.find("maho").unwrap_err().to_string();
+        assert!(e.ends_with("(plugin libmaho.so) and machine `third` (third.yaml) all claim it"), "{e}");
     }
 }

@@ -11,10 +11,10 @@
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
 
 use crate::error::{Doc, MachineError};
-use crate::locate::Seg;
+use crate::locate::{Seg, path_text};
 use crate::model::{
-    Axis, AxisKind, BranchPreference, Chain, ClosedForm, CncParams, Machine, OnDiscontinuity, PathChoice,
-    PolicyDefaults, SolverKind, Travel,
+    Axis, AxisKind, BranchPreference, Chain, Clearance, ClosedForm, CncParams, Machine, OnDiscontinuity, PathChoice,
+    PolicyDefaults, SolverKind, Travel, spindle_linear_axis,
 };
 use crate::quantity::{AxisQuantity, Dimension};
 use crate::raw;
@@ -42,11 +42,6 @@ const ZERO: f64 = 1e-9;
 
 /// Tolerance on unit vectors for "parallel", "perpendicular" and "independent".
 const ANGLE_TOL: f64 = 1e-6;
-
-/// A path into the document: `path!["axes", i, "vmax"]`.
-macro_rules! path {
-    ($($seg:expr),* $(,)?) => { &[$(Seg::from($seg)),*][..] };
-}
 
 /// Validates a deserialized definition into the model. `file` is the name shown in errors and
 /// `text` the definition's text (to point at the offending value).
@@ -121,6 +116,7 @@ impl Validator<'_> {
         let cnc = self.cnc(&axes, &chain)?;
         let policy = self.policy(&axes)?;
         let solver = self.solver(&axes, &chain)?;
+        let clearance = self.clearance(&axes, &chain)?;
         Ok(Machine {
             name: raw.name.clone(),
             aliases: raw.aliases.clone(),
@@ -131,6 +127,8 @@ impl Validator<'_> {
             cnc,
             policy,
             solver,
+            clearance,
+            units: raw.units.into(),
         })
     }
 
@@ -728,22 +726,68 @@ impl Validator<'_> {
         }
         Ok(SolverKind::ClosedForm(form))
     }
-}
 
-/// `axes[3].vmax`, as the YAML library writes paths.
-fn path_text(path: &[Seg<'_>]) -> String {
-    let mut out = String::new();
-    for seg in path {
-        match seg {
-            Seg::Key(k) if out.is_empty() => out.push_str(k),
-            Seg::Key(k) => {
-                out.push('.');
-                out.push_str(k);
+    /// `clearance`: a safe Z within the travel of the linear axis along the spindle, or a
+    /// positive retract; by default a safe Z at the end of that travel away from the part.
+    fn clearance(&self, axes: &[Axis], chain: &Chain) -> Result<Clearance, MachineError> {
+        let axis = spindle_linear_axis(axes, chain);
+        match (&self.raw.clearance, axis) {
+            (Some(raw::Clearance::Retract(d)), _) if d.0 > 0.0 => Ok(Clearance::Retract(d.0)),
+            (Some(raw::Clearance::Retract(d)), _) => Err(self.err(
+                path!["clearance", "retract"],
+                format!("retract distance {}", show(d.0, true)),
+                "expected a positive distance along the tool axis, such as `50 mm`",
+            )),
+            (Some(raw::Clearance::SafeZ(_)) | None, None) => {
+                let letters: Vec<&str> = chain.linear.iter().map(|&i| axes[i].letter.as_str()).collect();
+                let message = format!(
+                    "no linear axis ({}) is parallel to the spindle direction {}",
+                    list(&letters),
+                    vector_text(chain.tool_direction.into_inner())
+                );
+                let expected = "expected `clearance: { retract: LENGTH }`, a distance along the tool axis";
+                match self.raw.clearance {
+                    Some(_) => Err(self.err(path!["clearance", "safe_z"], message, expected)),
+                    None => Err(self.err_help(
+                        path!["clearance"],
+                        message,
+                        expected,
+                        "without such an axis there is no default safe height: give `clearance`".into(),
+                    )),
+                }
             }
-            Seg::Index(i) => out.push_str(&format!("[{i}]")),
+            (Some(raw::Clearance::SafeZ(z)), Some(i)) => {
+                let a = &axes[i];
+                // A linear axis's travel is limited (checked with the axes).
+                let Travel::Limited { min, max } = a.travel else { return Ok(Clearance::SafeZ(z.0)) };
+                if a.travel.contains(z.0) {
+                    return Ok(Clearance::SafeZ(z.0));
+                }
+                Err(self.err(
+                    path!["clearance", "safe_z"],
+                    format!("safe Z {} is beyond the travel of axis `{}`", show(z.0, true), a.letter),
+                    format!(
+                        "expected a machine coordinate of `{}` from {} to {}, near the end away from the part",
+                        a.letter,
+                        show(min, true),
+                        show(max, true)
+                    ),
+                ))
+            }
+            (None, Some(i)) => Ok(Clearance::SafeZ(default_safe_z(&axes[i], chain))),
         }
     }
-    out
+}
+
+/// The end of the spindle axis's travel that takes the tool away from the part: the top when the
+/// axis moves the tool along the spindle direction (tip → spindle), the bottom otherwise.
+fn default_safe_z(axis: &Axis, chain: &Chain) -> f64 {
+    match axis.travel {
+        Travel::Limited { max, .. } if axis.direction.dot(&chain.tool_direction) > 0.0 => max,
+        Travel::Limited { min, .. } => min,
+        // A linear axis's travel is limited (checked with the axes).
+        Travel::Endless => 0.0,
+    }
 }
 
 /// `[0, -1, 0]`
@@ -940,8 +984,46 @@ chain:
             "  - { letter: Z, kind: linear, direction: [0, 0, 1], travel: [-300, 100], vmax: 30 m/min, amax: 2 m/s^2, jmax: 20 m/s^3 }\n",
             "",
         );
-        assert_eq!(load(&two).unwrap().chain.linear, vec![0, 1]);
-        assert!(load(&with("direction: [0, 0, 1], travel", "direction: [0, 1, 1], travel")).is_ok());
+        // Neither has a linear axis along the spindle, hence no default clearance.
+        let retract = "clearance: { retract: 50 mm }\n";
+        assert_eq!(load(&format!("{two}{retract}")).unwrap().chain.linear, vec![0, 1]);
+        let skewed = with("direction: [0, 0, 1], travel", "direction: [0, 1, 1], travel");
+        assert!(load(&format!("{skewed}{retract}")).is_ok());
+    }
+
+    #[test]
+    fn clearance() {
+        // By default, a safe Z at the top of the Z travel (`[-300, 100]`).
+        let m = load(BASE).unwrap();
+        assert_eq!((m.clearance, m.spindle_linear_axis()), (Clearance::SafeZ(100.0), Some(2)));
+        assert_eq!(m.units, crate::model::ProgramUnits::Mm);
+        // The bottom when Z moves the tool towards the part.
+        let down = with("direction: [0, 0, 1], travel", "direction: [0, 0, -1], travel");
+        assert_eq!(load(&down).unwrap().clearance, Clearance::SafeZ(-300.0));
+        let m = load(&format!("{BASE}clearance: {{ safe_z: 0.05 m }}\nunits: inch\n")).unwrap();
+        assert_eq!((m.clearance, m.units), (Clearance::SafeZ(50.0), crate::model::ProgramUnits::Inch));
+        let m = load(&format!("{BASE}clearance: {{ retract: 2 in }}\n")).unwrap();
+        assert_eq!(m.clearance, Clearance::Retract(50.8));
+        let (m, e, at) = fails(&format!("{BASE}clearance: {{ safe_z: 150 mm }}\n"));
+        assert_eq!(
+            (m.as_str(), e.as_str(), at.as_str()),
+            (
+                "clearance.safe_z: safe Z 150 mm is beyond the travel of axis `Z`",
+                "expected a machine coordinate of `Z` from -300 mm to 100 mm, near the end away from the part",
+                "150 mm"
+            )
+        );
+        assert_eq!(fails(&format!("{BASE}clearance: {{ retract: 0 }}\n")).2, "0");
+        // Without a linear axis along the spindle: no default, and no safe Z.
+        let skewed = with("direction: [0, 0, 1], travel", "direction: [0, 1, 1], travel");
+        let (m, _, at) = fails(&skewed);
+        assert_eq!(m, "clearance: no linear axis (`X`, `Y` and `Z`) is parallel to the spindle direction [0, 0, 1]");
+        assert_eq!(at, "name: test-tt");
+        let (_, e, at) = fails(&format!("{skewed}clearance: {{ safe_z: 0 }}\n"));
+        assert_eq!(
+            (e.as_str(), at.as_str()),
+            ("expected `clearance: { retract: LENGTH }`, a distance along the tool axis", "0")
+        );
     }
 
     #[test]

@@ -1,7 +1,9 @@
 //! Data-driven tests of machine definitions: every `tests/defs/err_*.yaml` fails with a
 //! diagnostic whose rendering (no colours, 100 columns) is pinned by an insta snapshot; every
 //! `tests/defs/ok_*.yaml`, built-in and example definition loads, and the models of the built-in
-//! ones are pinned (in model units) so that a change of a unit conversion shows.
+//! ones are pinned (in model units, with their clearance) so that a change of a unit conversion
+//! shows. Every folder of `tests/registry/` is loaded as a machine folder: the files it skips
+//! (rendered warnings) and what its names find (machines or rendered errors) are pinned too.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -9,15 +11,9 @@ use std::path::{Path, PathBuf};
 use postpro_machine::model::{Machine, Travel};
 use postpro_machine::{BUILTIN, MachineError, Origin, Registry};
 
-/// The miette rendering as `postpro machines --check` prints it, without colours.
-fn render(e: &MachineError) -> String {
-    let mut out = String::new();
-    miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
-        .with_width(100)
-        .render_report(&mut out, e)
-        .expect("renders");
-    out
-}
+mod support;
+
+use support::render;
 
 /// The crate folder, so that file names in snapshots are relative to it.
 fn crate_dir() -> PathBuf {
@@ -128,6 +124,8 @@ fn summary(m: &Machine) -> String {
     );
     let _ = writeln!(s, "cnc         {:?}", m.cnc);
     let _ = writeln!(s, "policy      {:?}", m.policy);
+    let along = m.spindle_linear_axis().map_or("none".to_string(), |i| m.axes[i].letter.clone());
+    let _ = writeln!(s, "clearance   {:?} (spindle axis {along}) units {:?}", m.clearance, m.units);
     s
 }
 
@@ -139,40 +137,46 @@ fn builtin_models_are_pinned() {
     }
 }
 
-/// A fresh folder under the system's temporary folder.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("postpro-machine-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+/// Every folder of `tests/registry/` is loaded over the built-ins as `--machine-dir` loads it:
+/// the snapshot pins the machines it adds, the files it skips with their rendered warnings, and
+/// what each name of its `find.txt` finds (a machine and its origin, or the rendered error).
+#[test]
+fn registry_folders() {
+    insta::glob!("registry/*/find.txt", |find| {
+        let dir = find.parent().expect("a folder");
+        let dir = dir.strip_prefix(crate_dir()).unwrap_or(dir);
+        let (registry, skipped) = Registry::with_dirs(&[dir.to_path_buf()]).expect("built-ins load");
+        let mut report = String::from("loaded:\n");
+        for e in registry.entries().iter().filter(|e| e.origin != Origin::BuiltIn) {
+            let _ = writeln!(report, "  {} ({})", e.machine.name, e.origin);
+        }
+        report += "skipped:\n";
+        for s in &skipped {
+            assert!(s.to_string().starts_with(&format!("skipped `{}", dir.display())), "{s}");
+            report += &render(s);
+        }
+        for name in std::fs::read_to_string(find).expect("find.txt").lines() {
+            match registry.find(name) {
+                Ok(e) => {
+                    let _ = writeln!(report, "find {name}: {} ({})", e.machine.name, e.origin);
+                }
+                Err(e) => {
+                    let _ = writeln!(report, "find {name}:");
+                    report += &render(&e);
+                }
+            }
+        }
+        insta::assert_snapshot!(report);
+    });
 }
 
 #[test]
-fn load_dir_keeps_the_good_files_and_returns_the_errors() {
-    let dir = temp_dir("load-dir");
-    let good = std::fs::read_to_string(crate_dir().join("tests/defs/ok_base.yaml")).expect("ok_base");
-    std::fs::write(dir.join("a-good.yaml"), &good).expect("write");
-    std::fs::write(dir.join("b-other.yml"), good.replace("name: test-machine", "name: other")).expect("write");
-    std::fs::write(dir.join("c-broken.yaml"), good.replace("vmax: 30 rpm", "vmax: 30 furlongs")).expect("write");
-    std::fs::write(dir.join("d-clash.yaml"), good.replace("name: test-machine", "name: test-machine\naliases: [maho]"))
-        .expect("write");
-    std::fs::write(dir.join("notes.txt"), "not a machine").expect("write");
-
-    let mut registry = Registry::builtin().expect("built-ins");
-    let builtins = registry.entries().len();
-    let errors = registry.load_dir(&dir);
-    assert_eq!(registry.entries().len(), builtins + 2);
-    assert_eq!(errors.len(), 2, "{errors:?}");
-    assert!(errors[0].to_string().contains("unknown unit `furlongs`"), "{}", errors[0]);
-    assert!(
-        errors[1].to_string().starts_with("the name `test-machine` of machine `test-machine`"),
-        "the clash is reported: {}",
-        errors[1]
-    );
-    let entry = registry.find("OTHER").expect("found without case");
-    assert_eq!(entry.origin, Origin::File(dir.join("b-other.yml")));
-    assert!(registry.load_dir(&dir.join("missing")).first().is_some_and(|e| matches!(e, MachineError::Io { .. })));
-    let _ = std::fs::remove_dir_all(&dir);
+fn a_folder_that_cannot_be_read_is_skipped() {
+    let (registry, skipped) = Registry::with_dirs(&[PathBuf::from("tests/registry/missing")]).expect("built-ins");
+    assert_eq!(registry.entries().len(), BUILTIN.len());
+    assert_eq!(skipped.len(), 1);
+    assert!(matches!(skipped[0].error, MachineError::Io { .. }), "{:?}", skipped[0]);
+    assert!(skipped[0].to_string().starts_with("skipped `tests/registry/missing`: cannot read"), "{}", skipped[0]);
 }
 
 #[test]
@@ -183,7 +187,16 @@ fn load_file_reports_the_path() {
     let path = crate_dir().join("tests/defs/ok_base.yaml");
     let entry = registry.load_file(&path).expect("loads");
     assert_eq!(entry.origin, Origin::File(path.clone()));
-    let again = registry.load_file(&path).expect_err("a second time clashes");
-    let shown = render(&again);
+    // The same file again (`--machine FILE` also in `--machine-dir`) is the same machine.
+    assert_eq!(registry.load_file(&path).expect("the same file loads again").origin, Origin::File(path.clone()));
+    assert_eq!(registry.entries().len(), 1);
+    assert_eq!(registry.find("test-machine").expect("not ambiguous").origin, Origin::File(path.clone()));
+    // A copy of it elsewhere claims its name.
+    let copy = std::env::temp_dir().join(format!("postpro-machine-copy-{}.yaml", std::process::id()));
+    std::fs::copy(&path, &copy).expect("copy");
+    let clash = registry.load_file(&copy).expect_err("a copy clashes");
+    let _ = std::fs::remove_file(&copy);
+    let shown = render(&clash);
     assert!(shown.contains("already used by machine `test-machine`"), "{shown}");
+    assert!(matches!(registry.find("test-machine"), Err(MachineError::Ambiguous { .. })));
 }

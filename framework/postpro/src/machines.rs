@@ -12,7 +12,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use postpro_machine::model::{Machine, SolverKind};
+use postpro_machine::model::{Clearance, Machine, SolverKind};
 use postpro_machine::{Entry, MachineError, Registry};
 use postpro_plugins::Plugins;
 
@@ -43,21 +43,19 @@ pub(crate) fn run(args: &MachinesArgs) -> ExitCode {
     if let Some(file) = &args.check {
         return check(file);
     }
-    let mut registry = match Registry::builtin() {
+    let mut dirs: Vec<PathBuf> = std::env::var_os(PATH_VARIABLE)
+        .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
+        .unwrap_or_default();
+    dirs.extend(args.dirs.iter().cloned());
+    let (mut registry, skipped) = match Registry::with_dirs(&dirs) {
         Ok(r) => r,
         Err(e) => {
             eprint!("{}", render(&e));
             return ExitCode::from(1);
         }
     };
-    let mut dirs: Vec<PathBuf> = std::env::var_os(PATH_VARIABLE)
-        .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
-        .unwrap_or_default();
-    dirs.extend(args.dirs.iter().cloned());
-    let mut errors: Vec<String> = Vec::new();
-    for dir in &dirs {
-        errors.extend(registry.load_dir(dir).iter().map(render));
-    }
+    // Skipped files are warnings (the others are listed) but still make the exit code 1.
+    let mut errors: Vec<String> = skipped.iter().map(|s| crate::report::render(s)).collect();
     let mut plugins = Plugins::new();
     let mut plugin_errors = plugins.discover(&args.plugins);
     plugin_errors.extend(plugins.register(&mut registry));
@@ -100,14 +98,18 @@ fn check(file: &Path) -> ExitCode {
     };
     match postpro_machine::parse(&file.display().to_string(), &text) {
         Ok(m) => {
+            // Without a `clearance` key the machine has the default one: say so.
+            let default = postpro_machine::parse_raw("", &text).is_ok_and(|r| r.clearance.is_none());
             println!(
-                "{}: ok: `{}`, {}, {} solver, {} dialect, axes {}",
+                "{}: ok: `{}`, {}, {} solver, {} dialect, axes {}, units {}, {}",
                 file.display(),
                 m.name,
                 m.topology().label(),
                 solver(&m),
                 m.dialect,
-                letters(&m)
+                letters(&m),
+                m.units,
+                clearance(&m, default)
             );
             ExitCode::SUCCESS
         }
@@ -122,6 +124,22 @@ fn check(file: &Path) -> ExitCode {
 /// without colours like `postpro check`'s diagnostics.
 fn render(e: &MachineError) -> String {
     crate::report::render(e)
+}
+
+/// `clearance Z 500 mm (machine coordinates)`, with `(default: …)` when the file has none.
+fn clearance(m: &Machine, default: bool) -> String {
+    match m.clearance {
+        Clearance::SafeZ(z) => {
+            let letter = m.spindle_linear_axis().map_or("Z", |i| m.axes[i].letter.as_str());
+            let note = if default {
+                format!(", the default: the end of the {letter} travel away from the part")
+            } else {
+                String::new()
+            };
+            format!("clearance {letter} {} mm (machine coordinates{note})", z + 0.0)
+        }
+        Clearance::Retract(d) => format!("clearance retract {d} mm along the tool axis"),
+    }
 }
 
 fn solver(m: &Machine) -> &'static str {

@@ -176,15 +176,14 @@ impl MachineArgs {
     /// not: 2 for an unknown name, 1 for a machine file or a `--plugin` library that does not
     /// load. Problems with the other folders and plugins are printed and passed over.
     pub(crate) fn choose(&self) -> Result<Chosen, ExitCode> {
-        let mut registry = Registry::builtin().map_err(|e| fail(&report::render(&e), 1))?;
         let mut dirs: Vec<PathBuf> = std::env::var_os("POSTPRO_MACHINE_PATH")
             .map(|v| std::env::split_paths(&v).filter(|p| !p.as_os_str().is_empty()).collect())
             .unwrap_or_default();
         dirs.extend(self.dirs.iter().cloned());
-        for dir in &dirs {
-            for e in registry.load_dir(dir) {
-                eprint!("{}", report::render(&e));
-            }
+        let (mut registry, skipped) = Registry::with_dirs(&dirs).map_err(|e| fail(&report::render(&e), 1))?;
+        // Files that do not load are warnings: the other machines work.
+        for s in &skipped {
+            eprint!("{}", report::render(s));
         }
         let mut plugins = Plugins::new();
         for e in plugins.discover(&[]) {
