@@ -20,6 +20,7 @@ mod path;
 pub mod policy;
 mod pose;
 mod solver;
+mod tool;
 
 pub use chain::Chain;
 pub use closed::TableTableClosedForm;
@@ -28,6 +29,7 @@ pub use path::targets;
 pub use policy::{Decision, Noted, Policy, SolveError, Solved, Step, StepKind, Target, choose};
 pub use pose::{Joints, MAX_AXES, Pose};
 pub use solver::{Kinematics, Solution, Solutions, solver_for};
+pub use tool::{LengthFrom, ToolLength, solve_with_tools, tool_changes};
 
 /// Solves a tool path on a machine: the targets of the path, the policy's choice, then
 /// linearization within the policy's tolerance (decision steps are kept in step with it).
