@@ -100,7 +100,8 @@ pub enum Decision {
         axis: String,
         /// Its value before the singular run (degrees).
         from: f64,
-        /// Its value at the run's last point (degrees).
+        /// Its value after the run: at the next regular point, or at the run's last point at
+        /// the end of the path (degrees).
         to: f64,
         /// Points in the run.
         points: usize,
@@ -553,7 +554,7 @@ pub fn choose(
             decision: Decision::SingularHold {
                 axis: machine.axes[free].letter.clone(),
                 from: from.to_degrees(),
-                to: value.to_degrees(),
+                to: after.unwrap_or(value).to_degrees(),
                 points: i - run,
             },
         });

@@ -104,6 +104,24 @@ fn winding_beyond_the_limit_is_undone_at_the_next_rapid_only() {
 }
 
 #[test]
+fn winding_is_undone_at_a_rapid_of_a_final_vertical_pass() {
+    let kin = mikron();
+    // Three turns at feed, then a vertical pass to the end of the path, entered by a rapid.
+    let mut targets: Vec<Target> =
+        (0..=3 * 72).map(|k| oriented(k, Point3::new(40.0, 0.0, 0.0), 30.0, f64::from(k as u32) * 5.0)).collect();
+    let n = targets.len();
+    targets.push(rapid(oriented(n, Point3::new(40.0, 0.0, 50.0), 0.0, 0.0)));
+    targets.extend((1..5).map(|k| oriented(n + k, Point3::new(40.0 + k as f64, 0.0, -1.0), 0.0, 0.0)));
+    let policy = kin.machine().policy.clone();
+    let solved = choose(kin.as_ref(), &targets, &policy, None).expect("solvable");
+    let c = c_of(&solved);
+    assert!(c[n - 1].abs() > 720.0, "C {}", c[n - 1]);
+    assert!(c[n].abs() <= 180.0 + 1e-9 && c[n..].iter().all(|&v| v == c[n]), "C {:?}", &c[n..]);
+    let unwound = noted(&solved, |d| matches!(d, Decision::Unwind { .. }));
+    assert_eq!(unwound.iter().map(|d| d.step).collect::<Vec<_>>(), [n]);
+}
+
+#[test]
 fn a_path_through_the_pole_keeps_the_table_still() {
     let kin = mikron();
     let targets: Vec<Target> = (0..=40).map(|k| tilted(20.0 - f64::from(k), f64::from(k))).collect();
