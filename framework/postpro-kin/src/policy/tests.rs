@@ -36,6 +36,11 @@ fn tilted(phi: f64, x: f64) -> Target {
     oriented(x as usize, Point3::new(x, 0.0, 0.0), phi.abs(), if phi >= 0.0 { -90.0 } else { 90.0 })
 }
 
+/// Feed targets going `turns` times round the pole, 30° from it, in steps of 5°.
+fn round_the_pole(turns: usize) -> Vec<Target> {
+    (0..=turns * 72).map(|k| oriented(k, Point3::new(40.0, 0.0, 0.0), 30.0, k as f64 * 5.0)).collect()
+}
+
 fn rapid(mut t: Target) -> Target {
     t.rapid = true;
     t
@@ -60,8 +65,7 @@ fn noted(solved: &Solved, what: fn(&Decision) -> bool) -> Vec<&Noted> {
 #[test]
 fn an_endless_table_winds_over_five_turns_without_a_jump() {
     let kin = mikron();
-    let targets: Vec<Target> =
-        (0..=5 * 72).map(|k| oriented(k, Point3::new(40.0, 0.0, 0.0), 30.0, f64::from(k as u32) * 5.0)).collect();
+    let targets = round_the_pole(5);
     let policy = kin.machine().policy.clone();
     let solved = choose(kin.as_ref(), &targets, &policy, None).expect("solvable");
     check_poses(kin.as_ref(), &solved, 1e-9);
@@ -77,8 +81,7 @@ fn an_endless_table_winds_over_five_turns_without_a_jump() {
 fn winding_beyond_the_limit_is_undone_at_the_next_rapid_only() {
     let kin = mikron();
     // Three turns at feed, then a rapid away and a feed move back.
-    let mut targets: Vec<Target> =
-        (0..=3 * 72).map(|k| oriented(k, Point3::new(40.0, 0.0, 0.0), 30.0, f64::from(k as u32) * 5.0)).collect();
+    let mut targets = round_the_pole(3);
     let n = targets.len();
     targets.push(rapid(oriented(n, Point3::new(40.0, 0.0, 50.0), 30.0, 10.0)));
     targets.push(oriented(n + 1, Point3::new(40.0, 0.0, 0.0), 30.0, 15.0));
@@ -107,8 +110,7 @@ fn winding_beyond_the_limit_is_undone_at_the_next_rapid_only() {
 fn winding_is_undone_at_a_rapid_of_a_final_vertical_pass() {
     let kin = mikron();
     // Three turns at feed, then a vertical pass to the end of the path, entered by a rapid.
-    let mut targets: Vec<Target> =
-        (0..=3 * 72).map(|k| oriented(k, Point3::new(40.0, 0.0, 0.0), 30.0, f64::from(k as u32) * 5.0)).collect();
+    let mut targets = round_the_pole(3);
     let n = targets.len();
     targets.push(rapid(oriented(n, Point3::new(40.0, 0.0, 50.0), 0.0, 0.0)));
     targets.extend((1..5).map(|k| oriented(n + k, Point3::new(40.0 + k as f64, 0.0, -1.0), 0.0, 0.0)));
