@@ -2,27 +2,32 @@
 //!
 //! - **Ranges**: a solution whose axis values (after unwinding) leave the travel is not a
 //!   candidate; rotary travels may exceed one turn.
-//! - **Unwinding**: every rotary angle is taken at the turn nearest to the previous point, so an
-//!   endless axis accumulates rotation and never jumps by 360°.
+//! - **Shortest turns**: every rotary angle is taken at the turn nearest to the previous point, so
+//!   an endless axis never turns more than half a turn in one block; it accumulates rotation.
+//! - **Bounded winding**: an endless axis that has wound more than `unwind` turns from its home
+//!   position takes, at the next rapid, the equivalent angle nearest home.
 //! - **Choice**: by default dynamic programming over the whole path picks the sequence with the
-//!   least rotary travel, then the fewest branch switches, then the preferred branch; the greedy
-//!   choice takes the best next point each time.
+//!   fewest discontinuities, then the least rotary travel, then the fewest branch switches, then
+//!   the preferred branch; the greedy choice takes the best next point each time.
 //! - **Singularity**: within `singular_cone` of the pole the free rotary angle is not computed
-//!   from the (ill-conditioned) pose but carried from the neighbours (interpolated between the
-//!   last point before and the first after), the other rotary fitted to it and the linear axes
-//!   placed exactly; the tool axis then deviates by less than the cone.
-//! - **Discontinuity**: a rotary step larger than `max_rotary_step` on a feed move is an error
-//!   naming the CL line, or, as a setting, a retract along the tool axis, a reorientation at the
-//!   clearance and a re-engagement.
+//!   from the (ill-conditioned) pose but carried: a run reached through a rapid (a 3-axis or
+//!   vertical 3+2 pass) keeps its value and turns at the last rapid; a run at feed (a 5-axis pass
+//!   through the cone) turns where the tool axis is nearest the pole; the other rotary is fitted
+//!   to it and the linear axes placed exactly; the tool axis then deviates by less than the cone.
+//! - **Discontinuity**: only a branch change away from the pole or a travel limit during a feed
+//!   move; it is an error naming the CL line or, as a setting, a retract along the tool axis, a
+//!   reorientation at the clearance and a re-engagement. A large rotary step on one branch is
+//!   motion (linearization keeps the tip on the segment); above `max_rotary_step` it is reported.
 //!
 //! Every decision that is not obvious is returned as a [`Noted`] decision.
 
-use std::f64::consts::TAU;
+use std::f64::consts::{PI, TAU};
 use std::fmt;
 
 use postpro_cl::Span;
 use postpro_machine::model::{AxisKind, BranchPreference, OnDiscontinuity, PathChoice, PolicyDefaults, Travel};
 
+use crate::linearize::slerp;
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
 
@@ -33,6 +38,8 @@ pub type Policy = PolicyDefaults;
 const SWITCH_COST: f64 = 1e-3;
 /// Cost of a solution off the preferred branch: used only when the preferred one is infeasible.
 const OFF_PREFERENCE_COST: f64 = 100.0;
+/// Half a turn and a rounding margin: a step on an endless axis never exceeds it.
+const HALF_TURN: f64 = PI + 1e-9;
 
 /// A pose to reach, and where it came from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -81,18 +88,20 @@ pub type AxisMoves = Vec<(String, f64, f64)>;
 /// A decision that is not obvious, for the log and the NC program.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Decision {
-    /// The solution branch changes: the rotary axes before and after (degrees).
+    /// The solution branch changes (at the pole, or at a rapid): the rotary axes before and after
+    /// (degrees).
     BranchSwitch {
         /// The rotary axes before and after.
         axes: AxisMoves,
     },
-    /// Near the singularity the free axis is carried from the neighbours.
+    /// Within the singular cone the free axis is carried, not computed from the pose.
     SingularHold {
         /// The free axis.
         axis: String,
         /// Its value before the singular run (degrees).
         from: f64,
-        /// Its value after it (degrees).
+        /// Its value after the run: at the next regular point, or at the run's last point at
+        /// the end of the path (degrees).
         to: f64,
         /// Points in the run.
         points: usize,
@@ -108,6 +117,26 @@ pub enum Decision {
         clearance: f64,
         /// The rotary axes before and after.
         axes: AxisMoves,
+    },
+    /// A warning: a rotary axis turns by more than `max_rotary_step` in one feed block (it is
+    /// still one continuous motion, linearised to the tolerance).
+    LargeRotaryStep {
+        /// The axis that turns most.
+        axis: String,
+        /// Its value before (degrees).
+        from: f64,
+        /// Its value after (degrees).
+        to: f64,
+    },
+    /// An endless axis wound beyond `unwind` turns takes, at a rapid, the equivalent angle
+    /// nearest its home position.
+    Unwind {
+        /// The axis.
+        axis: String,
+        /// Its value before (degrees).
+        from: f64,
+        /// Its value after (degrees).
+        to: f64,
     },
 }
 
@@ -133,6 +162,9 @@ impl fmt::Display for Decision {
                 f.write_str("branch switch: ")?;
                 axes(f, a)
             }
+            Decision::SingularHold { axis, from, to, points } if (to - from).abs() < 5e-4 => {
+                write!(f, "near the singularity: {axis} held at {from:.3}° over {points} point(s)")
+            }
             Decision::SingularHold { axis, from, to, points } => {
                 write!(f, "near the singularity: {axis} carried from {from:.3}° to {to:.3}° over {points} point(s)")
             }
@@ -141,6 +173,10 @@ impl fmt::Display for Decision {
                 write!(f, "retract {clearance} mm, reorient, re-engage: ")?;
                 axes(f, a)
             }
+            Decision::LargeRotaryStep { axis, from, to } => {
+                write!(f, "large rotary step: {axis} {from:.3}° → {to:.3}° ({:.3}° in one block)", (to - from).abs())
+            }
+            Decision::Unwind { axis, from, to } => write!(f, "{axis} unwound at a rapid: {from:.3}° → {to:.3}°"),
         }
     }
 }
@@ -154,6 +190,26 @@ pub struct Solved {
     pub decisions: Vec<Noted>,
     /// Points added by linearization.
     pub inserted: usize,
+}
+
+/// Why two consecutive feed points cannot be joined by one continuous motion.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Jump {
+    /// The other solution branch, away from the pole: the table would turn by about half a turn
+    /// while the tool barely moves on the part.
+    BranchChange,
+    /// A rotary axis reaches the end of its travel: the equivalent angle nearest the previous
+    /// one lies outside it.
+    TravelLimit,
+}
+
+impl fmt::Display for Jump {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Jump::BranchChange => "the solution branch changes away from the pole",
+            Jump::TravelLimit => "a rotary axis reaches the end of its travel",
+        })
+    }
 }
 
 /// Why a path cannot be solved.
@@ -188,7 +244,7 @@ pub enum SolveError {
         machine: String,
     },
     /// No continuous sequence of solutions exists here.
-    #[error("no continuous solution: {axis} would jump from {from:.3}° to {to:.3}° during a feed move")]
+    #[error("no continuous solution ({cause}): {axis} would jump from {from:.3}° to {to:.3}° during a feed move")]
     #[diagnostic(
         code(kin::discontinuity),
         help(
@@ -205,26 +261,50 @@ pub enum SolveError {
         from: f64,
         /// To (degrees).
         to: f64,
+        /// Why the motion cannot be continuous.
+        cause: Jump,
     },
 }
 
-/// A state of the dynamic programme: a solution at its unwound turn, the cost of the best path
-/// to it and the state it came from. An infinite cost marks an empty state.
+/// A state of the dynamic programme: a solution at its unwound turn, the discontinuities and the
+/// cost of the best path to it, the state it came from and the jump (if any) on the way from it.
+/// An infinite cost marks an empty state.
 #[derive(Clone, Copy, Debug)]
 struct Node {
+    jumps: u32,
     cost: f64,
     pred: u8,
     joints: Joints,
     branch: u8,
     preferred: bool,
+    jump: Option<Jump>,
 }
 
 impl Node {
-    const EMPTY: Node = Node { cost: f64::INFINITY, pred: 0, joints: Joints::EMPTY, branch: 0, preferred: false };
+    const EMPTY: Node = Node {
+        jumps: u32::MAX,
+        cost: f64::INFINITY,
+        pred: 0,
+        joints: Joints::EMPTY,
+        branch: 0,
+        preferred: false,
+        jump: None,
+    };
 
     fn is_live(&self) -> bool {
         self.cost.is_finite()
     }
+
+    /// Fewer discontinuities first, then the lower cost.
+    fn better_than(&self, other: &Node) -> bool {
+        (self.jumps, self.cost) < (other.jumps, other.cost)
+    }
+}
+
+/// The smallest distance (rad) from a pose's solutions to the pole of their free axis; infinite
+/// when no solution has one.
+fn pole_distance(sols: &Solutions) -> f64 {
+    sols.iter().filter_map(|s| s.pole.map(|(_, d)| d)).fold(f64::INFINITY, f64::min)
 }
 
 /// Chooses one solution per target. `start` is where the machine is before the first target
@@ -238,13 +318,12 @@ pub fn choose(
     let machine = kin.machine();
     let rotary: Vec<usize> = (0..machine.axes.len()).filter(|&i| machine.axes[i].kind == AxisKind::Rotary).collect();
     let linear: Vec<usize> = (0..machine.axes.len()).filter(|&i| machine.axes[i].kind == AxisKind::Linear).collect();
-    let home = start.copied().unwrap_or_else(|| {
-        let mut j = Joints::zeros(machine.axes.len());
-        for (i, a) in machine.axes.iter().enumerate() {
-            j[i] = a.home;
-        }
-        j
-    });
+    let mut home = Joints::zeros(machine.axes.len());
+    for (i, a) in machine.axes.iter().enumerate() {
+        home[i] = a.home;
+    }
+    let start = start.copied().unwrap_or(home);
+    let unwinding = Unwinding::new(machine, &rotary, home, policy.unwind);
     let preference = match &policy.branch {
         BranchPreference::Closest => None,
         BranchPreference::Positive(l) => machine.axis_index(l).map(|i| (i, 1.0)),
@@ -263,11 +342,17 @@ pub fn choose(
             None => Ok(()),
         }
     };
-    // A solution with its rotary angles at the turn nearest to `prev`, within their travels.
+    // A solution with its rotary angles at the turn nearest to `prev`, within their travels; of
+    // two equally near (half a turn either way), the one nearer home.
     let unwound = |c: &Joints, prev: &Joints| -> Result<Joints, (usize, f64)> {
         let mut j = *c;
         for &r in &rotary {
-            j[r] = unwrap_near(c[r], prev[r], &machine.axes[r].travel).ok_or((r, c[r]))?;
+            let travel = &machine.axes[r].travel;
+            let v = unwrap_near(c[r], prev[r], travel).ok_or((r, c[r]))?;
+            let other = v - TAU * (v - prev[r]).signum();
+            let tie = ((v - prev[r]).abs() - PI).abs() < 1e-9;
+            j[r] =
+                if tie && travel.contains(other) && (other - home[r]).abs() < (v - home[r]).abs() { other } else { v };
         }
         Ok(j)
     };
@@ -283,23 +368,38 @@ pub fn choose(
     //    ones; the singular targets (every solution within the cone) are filled in afterwards.
     let mut regular: Vec<u32> = Vec::with_capacity(targets.len());
     let mut free_axis_of_singular: Vec<(u32, u8)> = Vec::new();
+    let mut pole: Vec<f64> = Vec::with_capacity(targets.len());
     let mut dp: Vec<[Node; 2]> = Vec::with_capacity(targets.len());
     let mut sols = Solutions::new();
-    let start = [Node { cost: 0.0, pred: 0, joints: home, branch: u8::MAX, preferred: true }, Node::EMPTY];
+    let mut probe = Solutions::new();
+    let origin = [
+        Node { jumps: 0, cost: 0.0, pred: 0, joints: start, branch: u8::MAX, preferred: true, jump: None },
+        Node::EMPTY,
+    ];
+    // A rapid among the targets since the previous regular one (this one included).
+    let mut rapid_since = false;
     for (i, t) in targets.iter().enumerate() {
         kin.inverse(&t.pose, &mut sols);
         if sols.is_empty() {
             return Err(unreachable(t));
         }
+        pole.push(pole_distance(&sols));
+        rapid_since |= t.rapid;
         let free =
             |s: &crate::solver::Solution| s.pole.filter(|&(_, d)| d < policy.singular_cone).map(|(axis, _)| axis);
         if let Some(f) = sols.iter().map(free).reduce(|a, b| a.and(b)).flatten() {
             free_axis_of_singular.push((i as u32, f as u8));
             continue;
         }
+        // Consecutive feed points: here a branch change away from the pole, or a turn beyond
+        // the nearest one, is a discontinuity.
+        let previous_target = regular.last().map(|&p| p as usize).filter(|&p| p + 1 == i && !rapid_since);
+        let pole_passage = previous_target.is_some_and(|p| {
+            passes_pole(kin, (&targets[p].pose, pole[p]), (&t.pose, pole[i]), policy.singular_cone, &mut probe)
+        });
         let mut layer = [Node::EMPTY; 2];
         let mut reasons: [Option<(usize, f64)>; 4] = [None; 4];
-        let previous = dp.last().unwrap_or(&start);
+        let previous = dp.last().unwrap_or(&origin);
         for (s, cand) in sols.iter().enumerate() {
             if let Err(reason) = linear_ok(&cand.joints) {
                 reasons[2 * s] = Some(reason);
@@ -307,15 +407,37 @@ pub fn choose(
             }
             for (p, node) in previous.iter().enumerate().filter(|(_, n)| n.is_live()) {
                 match unwound(&cand.joints, &node.joints) {
-                    Ok(j) => {
-                        let pref = preferred(&j);
+                    Ok(mut j) => {
                         let switch = node.branch != u8::MAX && node.branch != cand.branch;
+                        let jump = match previous_target {
+                            None => None,
+                            Some(_) if rotary.iter().any(|&r| (j[r] - node.joints[r]).abs() > HALF_TURN) => {
+                                Some(Jump::TravelLimit)
+                            }
+                            Some(_) if switch && !pole_passage => Some(Jump::BranchChange),
+                            Some(_) => None,
+                        };
+                        let pref = preferred(&j);
+                        // The travel before unwinding: the whole turns taken off at a rapid are
+                        // the policy's, and must not make the other branch look cheaper.
                         let cost = node.cost
                             + travel_cost(&node.joints, &j)
                             + if switch { SWITCH_COST } else { 0.0 }
                             + if pref { 0.0 } else { OFF_PREFERENCE_COST };
-                        if cost < layer[s].cost {
-                            layer[s] = Node { cost, pred: p as u8, joints: j, branch: cand.branch, preferred: pref };
+                        if rapid_since {
+                            unwinding.apply(&mut j);
+                        }
+                        let next = Node {
+                            jumps: node.jumps + u32::from(jump.is_some()),
+                            cost,
+                            pred: p as u8,
+                            joints: j,
+                            branch: cand.branch,
+                            preferred: pref,
+                            jump,
+                        };
+                        if next.better_than(&layer[s]) {
+                            layer[s] = next;
                         }
                     }
                     Err(reason) => reasons[2 * s + p] = Some(reason),
@@ -338,6 +460,7 @@ pub fn choose(
         }
         dp.push(layer);
         regular.push(i as u32);
+        rapid_since = false;
     }
     // Back from the best last state: the chosen state of every regular target.
     let mut states = vec![0u8; dp.len()];
@@ -351,13 +474,16 @@ pub fn choose(
     let node = |k: usize| Some(dp[k][usize::from(states[k])]).filter(Node::is_live);
 
     // 2. The steps in path order: regular targets from the programme, singular runs with the
-    //    free axis carried from their neighbours; branch switches, preference and
-    //    discontinuities handled as each step is added.
-    let letters = |a: &Joints, b: &Joints| -> AxisMoves {
-        rotary.iter().map(|&r| (machine.axes[r].letter.clone(), a[r].to_degrees(), b[r].to_degrees())).collect()
+    //    free axis carried; discontinuities, branch switches and preference handled as each step
+    //    is added.
+    let mut out = Output {
+        kin,
+        rotary: &rotary,
+        policy,
+        // Room for a few retracts without reallocating the steps.
+        steps: Vec::with_capacity(targets.len() + targets.len() / 64 + 16),
+        decisions: Vec::new(),
     };
-    // Room for a few retracts without reallocating the steps.
-    let mut out = Output { steps: Vec::with_capacity(targets.len() + targets.len() / 64 + 16), decisions: Vec::new() };
     let step =
         |t: &Target, joints: Joints| Step { joints, pose: t.pose, rapid: t.rapid, span: t.span, kind: StepKind::Cl };
     let (mut k, mut sg) = (0usize, 0usize);
@@ -368,12 +494,13 @@ pub fn choose(
     while i < targets.len() {
         if regular.get(k).is_some_and(|&r| r as usize == i) {
             let n = node(k).ok_or_else(|| unreachable(&targets[i]))?;
-            let at = out.push(kin, &rotary, policy, step(&targets[i], n.joints), &letters)?;
+            let at = out.push(step(&targets[i], n.joints), n.jump)?;
             if let Some((p, joints, b)) = previous_regular
                 && b != n.branch
                 && p + 1 == i
+                && n.jump.is_none()
             {
-                let decision = Decision::BranchSwitch { axes: letters(&joints, &n.joints) };
+                let decision = Decision::BranchSwitch { axes: out.moves(&joints, &n.joints) };
                 out.decisions.push(Noted { step: at, span: targets[i].span, decision });
             }
             if !n.preferred
@@ -389,26 +516,23 @@ pub fn choose(
             k += 1;
             continue;
         }
-        // A singular run: targets i..end.
-        let start_run = i;
+        // A singular run: targets i..end, then the regular target `end` if there is one.
+        let run = i;
         while i < targets.len() && regular.get(k).is_none_or(|&r| r as usize != i) {
             i += 1;
         }
-        let before = out.steps.last().map(|s| s.joints);
-        let after = (k < regular.len()).then(|| node(k)).flatten().map(|n| n.joints);
         let free = usize::from(free_axis_of_singular[sg].1);
-        sg += i - start_run;
-        let from = before.unwrap_or(home)[free];
-        let to = after.map_or(from, |a| unwrap_near(a[free], from, &Travel::Endless).unwrap_or(from));
-        let count = i - start_run;
-        // Spread the free axis over the run, unless that makes every step a discontinuity:
-        // then hold it, and the one jump (if any) comes after the run.
-        let spread = after.is_some() && (to - from).abs() / (count + 1) as f64 <= policy.max_rotary_step;
+        sg += i - run;
+        let from = out.steps.last().map_or(start[free], |s| s.joints[free]);
+        let after = (k < regular.len()).then(|| node(k)).flatten().map(|n| n.joints[free]);
+        let fractions = swing_fractions(targets, &pole, run, i, after.is_some());
+        let mut value = from;
         let mut first_step = None;
-        for (n, t) in targets[start_run..i].iter().enumerate() {
-            let u = if spread { (n + 1) as f64 / (count + 1) as f64 } else { 0.0 };
-            let value = from + (to - from) * u;
-            let prev = out.steps.last().map_or(home, |s| s.joints);
+        for (t, u) in targets[run..i].iter().zip(&fractions) {
+            if let Some(to) = after {
+                value = from + (to - from) * u;
+            }
+            let prev = out.steps.last().map_or(start, |s| s.joints);
             let held = kin.inverse_holding(&t.pose, free, value).ok_or_else(|| unreachable(t))?;
             let mut j = realize(&held, &prev).map_err(|reason| SolveError::OutOfTravel {
                 span: t.span,
@@ -416,62 +540,190 @@ pub fn choose(
                 machine: machine.name.clone(),
             })?;
             j[free] = value;
-            let at = out.push(kin, &rotary, policy, step(t, j), &letters)?;
+            if after.is_none() && t.rapid {
+                // No regular point follows to bring the winding back: unwind here.
+                unwinding.apply(&mut j);
+                value = j[free];
+            }
+            let at = out.push(step(t, j), None)?;
             first_step.get_or_insert(at);
         }
-        let to = if spread { to } else { from };
         out.decisions.push(Noted {
             step: first_step.unwrap_or(out.steps.len()),
-            span: targets[start_run].span,
+            span: targets[run].span,
             decision: Decision::SingularHold {
                 axis: machine.axes[free].letter.clone(),
                 from: from.to_degrees(),
-                to: to.to_degrees(),
-                points: count,
+                to: after.unwrap_or(value).to_degrees(),
+                points: i - run,
             },
         });
     }
-    let Output { steps, mut decisions } = out;
+    let Output { steps, mut decisions, .. } = out;
     decisions.sort_by_key(|d| d.step);
     Ok(Solved { steps, decisions, inserted: 0 })
 }
 
+/// For each target of the singular run `run..end`, the share of the free axis's swing (from its
+/// value before the run to its value at `end`) done on reaching it:
+/// - if a move into `run..=end` is a rapid, all of it at the last such rapid (the tool is away
+///   from the part): a 3-axis or vertical 3+2 pass between rapids keeps the free axis;
+/// - otherwise turning by Δ on a move whose tool axes lie at most ε from the pole moves the tool
+///   axis off the programmed one by about ε·Δ, so each move turns in inverse proportion to its ε
+///   (the largest deviation is then least): moves on the pole itself (ε = 0, a vertical pass
+///   reached at feed) take it all, in proportion to their length, and leave the tool axis exact;
+///   the tilting moves into and out of such a pass keep the free axis.
+///
+/// The move into the first target of the path (from wherever the machine is) is not counted.
+/// Without a regular target after the run (`has_after` false) nothing turns.
+fn swing_fractions(targets: &[Target], pole: &[f64], run: usize, end: usize, has_after: bool) -> Vec<f64> {
+    /// Below this distance from the pole (rad) a tool axis is on it.
+    const ON_POLE: f64 = 1e-9;
+    let count = end - run;
+    if !has_after {
+        return vec![0.0; count];
+    }
+    let moves = run.max(1)..=end;
+    if let Some(m) = moves.clone().rev().find(|&m| targets[m].rapid) {
+        return (run..end).map(|n| if n >= m { 1.0 } else { 0.0 }).collect();
+    }
+    let eps = |m: usize| pole[m - 1].max(pole[m]);
+    let on_pole = moves.clone().any(|m| eps(m) < ON_POLE);
+    let weight = |m: usize| match (moves.contains(&m), on_pole) {
+        (false, _) => 0.0,
+        (true, true) if eps(m) < ON_POLE => (targets[m].pose.tip - targets[m - 1].pose.tip).norm() + 1e-9,
+        (true, true) => 0.0,
+        (true, false) => 1.0 / eps(m),
+    };
+    let weights: Vec<f64> = (run..=end).map(weight).collect();
+    let total: f64 = weights.iter().sum();
+    let mut done = 0.0;
+    weights[..count]
+        .iter()
+        .map(|w| {
+            done += w;
+            if total > 0.0 { done / total } else { 0.0 }
+        })
+        .collect()
+}
+
+/// Whether the tool axis, moving along the great circle from pose `a` to pose `b` (each given
+/// with its distance from the pole), passes within `cone` of the pole: a branch change between
+/// them is then a pole passage, not a discontinuity. The distance changes by at most the angle
+/// moved, so most pairs are decided at once; otherwise the arc is sampled at steps of the cone
+/// and the smallest distance refined by golden-section search.
+fn passes_pole(kin: &dyn Kinematics, a: (&Pose, f64), b: (&Pose, f64), cone: f64, probe: &mut Solutions) -> bool {
+    let ((pa, da), (pb, db)) = (a, b);
+    if da < cone || db < cone {
+        return true;
+    }
+    let span = pa.axis.angle(&pb.axis);
+    if (da + db - span) / 2.0 >= cone {
+        return false;
+    }
+    let mut distance = |t: f64| {
+        let pose = Pose { tip: pa.tip, axis: slerp(&pa.axis, &pb.axis, t) };
+        kin.inverse(&pose, probe);
+        pole_distance(probe)
+    };
+    let n = ((span / cone).ceil() as usize).clamp(2, 4096);
+    let (mut best, mut best_t) = (f64::INFINITY, 0.0);
+    for k in 1..n {
+        let t = k as f64 / n as f64;
+        let d = distance(t);
+        if d < best {
+            (best, best_t) = (d, t);
+        }
+    }
+    if best < cone {
+        return true;
+    }
+    // Golden-section search between the neighbours of the best sample.
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut lo, mut hi) = ((best_t - 1.0 / n as f64).max(0.0), (best_t + 1.0 / n as f64).min(1.0));
+    while hi - lo > 1e-9 {
+        let (x1, x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        let (d1, d2) = (distance(x1), distance(x2));
+        best = best.min(d1).min(d2);
+        if d1 < d2 { hi = x2 } else { lo = x1 }
+    }
+    best < cone
+}
+
+/// The unwinding of endless axes at rapids: beyond the allowed winding from home, the
+/// equivalent angle nearest home.
+struct Unwinding {
+    /// Endless rotary axes and their home values.
+    axes: Vec<(usize, f64)>,
+    /// The winding allowed (rad); `None`: never unwound.
+    limit: Option<f64>,
+}
+
+impl Unwinding {
+    fn new(machine: &postpro_machine::model::Machine, rotary: &[usize], home: Joints, turns: Option<f64>) -> Unwinding {
+        let axes =
+            rotary.iter().filter(|&&r| machine.axes[r].travel == Travel::Endless).map(|&r| (r, home[r])).collect();
+        Unwinding { axes, limit: turns.map(|t| t * TAU) }
+    }
+
+    /// Unwinds the axes of `joints` wound beyond the limit.
+    fn apply(&self, joints: &mut Joints) {
+        let Some(limit) = self.limit else { return };
+        for &(r, home) in &self.axes {
+            if (joints[r] - home).abs() > limit {
+                joints[r] = unwrap_near(joints[r], home, &Travel::Endless).unwrap_or(joints[r]);
+            }
+        }
+    }
+}
+
 /// The steps being built, and the decisions about them.
-struct Output {
+struct Output<'a> {
+    kin: &'a dyn Kinematics,
+    rotary: &'a [usize],
+    policy: &'a Policy,
     steps: Vec<Step>,
     decisions: Vec<Noted>,
 }
 
-impl Output {
-    /// Adds a step and returns its index. A rotary step larger than the policy allows on a feed
-    /// move is an error, or is preceded by a retract above the previous point and a
-    /// reorientation above this one (this step then re-engages).
-    fn push(
-        &mut self,
-        kin: &dyn Kinematics,
-        rotary: &[usize],
-        policy: &Policy,
-        mut step: Step,
-        letters: &dyn Fn(&Joints, &Joints) -> AxisMoves,
-    ) -> Result<usize, SolveError> {
-        if let Some(&prev) = self.steps.last()
-            && !step.rapid
-            && let Some(&r) = rotary.iter().find(|&&r| (step.joints[r] - prev.joints[r]).abs() > policy.max_rotary_step)
-        {
-            match policy.on_discontinuity {
+impl Output<'_> {
+    /// The rotary axes from `a` to `b`, in degrees.
+    fn moves(&self, a: &Joints, b: &Joints) -> AxisMoves {
+        let axes = &self.kin.machine().axes;
+        self.rotary.iter().map(|&r| (axes[r].letter.clone(), a[r].to_degrees(), b[r].to_degrees())).collect()
+    }
+
+    /// The rotary axis that changes most from `a` to `b`, and by how much (rad).
+    fn largest_turn(&self, a: &Joints, b: &Joints) -> Option<(usize, f64)> {
+        self.rotary.iter().map(|&r| (r, (b[r] - a[r]).abs())).max_by(|x, y| x.1.total_cmp(&y.1))
+    }
+
+    /// Adds a step and returns its index. A `jump` (a discontinuity from the previous step) is an
+    /// error, or is preceded by a retract above the previous point and a reorientation above this
+    /// one (this step then re-engages). A feed step that turns a rotary axis by more than
+    /// `max_rotary_step` is noted as a warning; a rapid that unwinds an endless axis is noted.
+    fn push(&mut self, mut step: Step, jump: Option<Jump>) -> Result<usize, SolveError> {
+        let Some(&prev) = self.steps.last() else {
+            self.steps.push(step);
+            return Ok(0);
+        };
+        let axes = &self.kin.machine().axes;
+        if let Some(cause) = jump {
+            match self.policy.on_discontinuity {
                 OnDiscontinuity::Error => {
-                    let r = rotary
-                        .iter()
-                        .copied()
-                        .max_by(|&x, &y| {
-                            (step.joints[x] - prev.joints[x]).abs().total_cmp(&(step.joints[y] - prev.joints[y]).abs())
-                        })
-                        .unwrap_or(r);
+                    let r = match cause {
+                        Jump::TravelLimit => {
+                            self.rotary.iter().copied().find(|&r| (step.joints[r] - prev.joints[r]).abs() > HALF_TURN)
+                        }
+                        Jump::BranchChange => self.largest_turn(&prev.joints, &step.joints).map(|(r, _)| r),
+                    }
+                    .unwrap_or(self.rotary[0]);
                     return Err(SolveError::Discontinuity {
                         span: step.span,
-                        axis: kin.machine().axes[r].letter.clone(),
+                        axis: axes[r].letter.clone(),
                         from: prev.joints[r].to_degrees(),
                         to: step.joints[r].to_degrees(),
+                        cause,
                     });
                 }
                 OnDiscontinuity::Retract { clearance } => {
@@ -479,21 +731,43 @@ impl Output {
                         |s: &Step| Pose { tip: s.pose.tip + s.pose.axis.into_inner() * clearance, axis: s.pose.axis };
                     let (a, b) = (up(&prev), up(&step));
                     self.steps.push(Step {
-                        joints: kin.place(&a, &prev.joints),
+                        joints: self.kin.place(&a, &prev.joints),
                         pose: a,
                         rapid: true,
                         kind: StepKind::Retract,
                         ..prev
                     });
                     self.steps.push(Step {
-                        joints: kin.place(&b, &step.joints),
+                        joints: self.kin.place(&b, &step.joints),
                         pose: b,
                         rapid: true,
                         kind: StepKind::Reorient,
                         ..step
                     });
                     step.kind = StepKind::Reengage;
-                    let decision = Decision::Retract { clearance, axes: letters(&prev.joints, &step.joints) };
+                    let decision = Decision::Retract { clearance, axes: self.moves(&prev.joints, &step.joints) };
+                    self.decisions.push(Noted { step: self.steps.len(), span: step.span, decision });
+                }
+            }
+        } else if !step.rapid {
+            if let Some((r, turn)) = self.largest_turn(&prev.joints, &step.joints)
+                && turn > self.policy.max_rotary_step
+            {
+                let decision = Decision::LargeRotaryStep {
+                    axis: axes[r].letter.clone(),
+                    from: prev.joints[r].to_degrees(),
+                    to: step.joints[r].to_degrees(),
+                };
+                self.decisions.push(Noted { step: self.steps.len(), span: step.span, decision });
+            }
+        } else {
+            for &r in self.rotary {
+                if axes[r].travel == Travel::Endless && (step.joints[r] - prev.joints[r]).abs() > HALF_TURN {
+                    let decision = Decision::Unwind {
+                        axis: axes[r].letter.clone(),
+                        from: prev.joints[r].to_degrees(),
+                        to: step.joints[r].to_degrees(),
+                    };
                     self.decisions.push(Noted { step: self.steps.len(), span: step.span, decision });
                 }
             }
@@ -504,7 +778,7 @@ impl Output {
 }
 
 fn best_state(layer: &[Node; 2]) -> usize {
-    usize::from(layer[1].cost < layer[0].cost)
+    usize::from(layer[1].better_than(&layer[0]))
 }
 
 /// `value` plus whole turns: the one nearest to `near` within the travel.
@@ -527,3 +801,6 @@ fn out_of_travel(letter: &str, value: f64, travel: &Travel, rotary: bool) -> Str
         (Travel::Endless, _) => format!("{letter} {value:.3}"),
     }
 }
+
+#[cfg(test)]
+mod tests;

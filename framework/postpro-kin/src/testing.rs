@@ -66,6 +66,7 @@ pub(crate) fn machine(rotaries: &[(&str, [f64; 3], [f64; 3], bool)], solver: Sol
             max_rotary_step: 30_f64.to_radians(),
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: 0.01,
+            unwind: Some(2.0),
         },
         solver,
         clearance: Clearance::SafeZ(2000.0),

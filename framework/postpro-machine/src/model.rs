@@ -293,13 +293,18 @@ pub struct PolicyDefaults {
     /// Half-angle of the cone around the primary rotary axis inside which the pose is treated as
     /// singular (rad).
     pub singular_cone: f64,
-    /// The largest rotary step between two consecutive points that still counts as continuous
-    /// (rad); a larger step is a discontinuity.
+    /// A rotary step between two consecutive feed points larger than this (rad) is reported as
+    /// a warning; it is still motion (only a branch change away from the pole or a travel limit
+    /// is a discontinuity).
     pub max_rotary_step: f64,
     /// What to do at a discontinuity.
     pub on_discontinuity: OnDiscontinuity,
     /// Largest deviation of the tool tip from the programmed segment (mm).
     pub linearization_tolerance: f64,
+    /// Turns an endless rotary axis may wind from its home position before it is unwound at the
+    /// next rapid (the equivalent angle nearest home is taken there); `None`: never unwound.
+    /// A number of turns, not an angle.
+    pub unwind: Option<f64>,
 }
 
 /// Which IKT branch to prefer.

@@ -253,7 +253,13 @@ pub struct Policy {
     pub on_discontinuity: OnDiscontinuity,
     /// Largest tool-tip deviation (default 0.01 mm).
     pub linearization_tolerance: Length,
+    /// Turns an endless rotary axis may wind before it is unwound at a rapid: `N turns`, a bare
+    /// number of turns, or `off` (default [`DEFAULT_UNWIND_TURNS`] turns).
+    pub unwind: Unwind,
 }
+
+/// The turns an endless rotary axis may wind from its home position by default.
+pub const DEFAULT_UNWIND_TURNS: f64 = 2.0;
 
 impl Default for Policy {
     fn default() -> Self {
@@ -264,7 +270,50 @@ impl Default for Policy {
             max_rotary_step: Angle(30f64.to_radians()),
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: Length(0.01),
+            unwind: Unwind::Turns(DEFAULT_UNWIND_TURNS),
         }
+    }
+}
+
+/// `unwind:`: `off`, or a number of turns (`2 turns`, `1 turn`, or a bare number).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Unwind {
+    /// `off`: an endless axis winds without limit.
+    Off,
+    /// Turns allowed before unwinding (checked to be above 0 by the validation).
+    Turns(f64),
+}
+
+impl<'de> Deserialize<'de> for Unwind {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct UnwindVisitor;
+        impl<'de> Visitor<'de> for UnwindVisitor {
+            type Value = Unwind;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("`off` or a number of turns such as `2 turns`")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Unwind, E> {
+                let v = v.trim();
+                if v == "off" {
+                    return Ok(Unwind::Off);
+                }
+                let number = v.strip_suffix("turns").or_else(|| v.strip_suffix("turn")).unwrap_or(v);
+                match number.trim().parse::<f64>() {
+                    Ok(turns) if turns.is_finite() => Ok(Unwind::Turns(turns)),
+                    _ => Err(E::invalid_value(de::Unexpected::Str(v), &self)),
+                }
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Unwind, E> {
+                Ok(Unwind::Turns(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Unwind, E> {
+                Ok(Unwind::Turns(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Unwind, E> {
+                Ok(Unwind::Turns(v as f64))
+            }
+        }
+        deserializer.deserialize_any(UnwindVisitor)
     }
 }
 
@@ -498,6 +547,19 @@ mod tests {
         assert_eq!(serde_yaml::from_str::<Units>("inch").unwrap(), Units::Inch);
         let e = serde_yaml::from_str::<Units>("inches").unwrap_err().to_string();
         assert!(e.contains("unknown variant `inches`, expected `mm` or `inch`"), "{e}");
+    }
+
+    #[test]
+    fn unwind_forms() {
+        assert_eq!(serde_yaml::from_str::<Unwind>("off").unwrap(), Unwind::Off);
+        assert_eq!(serde_yaml::from_str::<Unwind>("2 turns").unwrap(), Unwind::Turns(2.0));
+        assert_eq!(serde_yaml::from_str::<Unwind>("1 turn").unwrap(), Unwind::Turns(1.0));
+        assert_eq!(serde_yaml::from_str::<Unwind>("1.5turns").unwrap(), Unwind::Turns(1.5));
+        assert_eq!(serde_yaml::from_str::<Unwind>("3").unwrap(), Unwind::Turns(3.0));
+        let e = serde_yaml::from_str::<Unwind>("2 rev").unwrap_err().to_string();
+        assert!(e.contains("expected `off` or a number of turns such as `2 turns`"), "{e}");
+        assert!(serde_yaml::from_str::<Unwind>("never").is_err());
+        assert!(serde_yaml::from_str::<Unwind>("[1]").is_err());
     }
 
     #[test]

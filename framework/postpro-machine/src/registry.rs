@@ -48,6 +48,7 @@ impl fmt::Display for Origin {
 pub const BUILTIN: &[(&str, &str)] = &[
     ("machine-defs/maho600e.yaml", include_str!("../../../machine-defs/maho600e.yaml")),
     ("machine-defs/mikron-ucp710.yaml", include_str!("../../../machine-defs/mikron-ucp710.yaml")),
+    ("machine-defs/haas-umc750.yaml", include_str!("../../../machine-defs/haas-umc750.yaml")),
     ("machine-defs/examples/3axis-vmc.yaml", include_str!("../../../machine-defs/examples/3axis-vmc.yaml")),
     ("machine-defs/examples/4axis-a-table.yaml", include_str!("../../../machine-defs/examples/4axis-a-table.yaml")),
     (

@@ -619,6 +619,17 @@ impl Validator<'_> {
                 "expected a positive tolerance such as `0.01 mm`",
             ));
         }
+        let unwind = match p.unwind {
+            raw::Unwind::Off => None,
+            raw::Unwind::Turns(turns) if turns > 0.0 => Some(turns),
+            raw::Unwind::Turns(turns) => {
+                return Err(self.err(
+                    path!["policy", "unwind"],
+                    format!("unwinding after {turns} turns"),
+                    "expected a number of turns above 0 such as `2 turns`, or `off`",
+                ));
+            }
+        };
         Ok(PolicyDefaults {
             branch,
             choice: match p.choice {
@@ -629,6 +640,7 @@ impl Validator<'_> {
             max_rotary_step: p.max_rotary_step.0,
             on_discontinuity,
             linearization_tolerance: p.linearization_tolerance.0,
+            unwind,
         })
     }
 
@@ -1113,6 +1125,11 @@ chain:
         assert_eq!(fails(&policy("  max_rotary_step: -1 deg")).2, "-1 deg");
         assert_eq!(fails(&policy("  linearization_tolerance: 0 mm")).2, "0 mm");
         assert_eq!(fails(&policy("  on_discontinuity: { retract: 0 mm }")).2, "0 mm");
+        assert_eq!(fails(&policy("  unwind: 0 turns")).2, "0 turns");
+        assert_eq!(fails(&policy("  unwind: -1")).2, "-1");
+        assert_eq!(load(&policy("  unwind: off")).unwrap().policy.unwind, None);
+        assert_eq!(load(&policy("  unwind: 3 turns")).unwrap().policy.unwind, Some(3.0));
+        assert_eq!(load(BASE).unwrap().policy.unwind, Some(2.0));
     }
 
     #[test]

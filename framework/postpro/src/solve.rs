@@ -89,7 +89,7 @@ pub(crate) struct IktArgs {
     /// Half-angle of the singular cone, degrees.
     #[arg(long, value_name = "DEG", value_parser = positive)]
     singular_cone: Option<f64>,
-    /// Largest rotary step between two points that is still continuous, degrees.
+    /// A rotary step between two feed points above this is reported as a warning, degrees.
     #[arg(long, value_name = "DEG", value_parser = positive)]
     max_rotary_step: Option<f64>,
     /// At a discontinuity: `error`, or `retract[:MM]` (retract along the tool axis, default 50 mm).
