@@ -1,6 +1,6 @@
 $$ A 5-axis pass whose tool axis tilts in the y-z plane from -50 deg to +50 deg.
 $$ On the Mikron UCP 710 (A in [-120, 30] deg) tilts below -30 deg exist only on one branch
-$$ and tilts above +30 deg only on the other: no continuous solution exists.
+$$ and tilts above +30 deg only on the other: the path crosses the pole, where the table turns.
 UNITS/MM
 FEDRAT/MMPM,1000
 GOTO/0.0000,0.0000,0.0000,0.0000000,0.7660444,0.6427876

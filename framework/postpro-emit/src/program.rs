@@ -7,7 +7,7 @@
 use postpro_cl::Coolant;
 use postpro_kin::{Joints, Pose};
 use postpro_machine::model::{AxisKind, Machine};
-use postpro_motion::{BlockKind, FeedWord, Placement, Position};
+use postpro_motion::{BlockKind, FeedWord, Position};
 use serde::Serialize;
 
 use crate::EmitError;
@@ -714,11 +714,8 @@ impl<'a> Formatter<'a> {
         let mut placed: Vec<(usize, usize)> = taken
             .map(|at| {
                 let step = annotations[self.notes[at]].step;
-                let place =
-                    spline.steps.binary_search_by_key(&step, |s| s.0).ok().map_or(0, |i| match spline.steps[i].1 {
-                        Placement::BeforeStart => 0,
-                        Placement::BeforeControl(k) => k,
-                    });
+                // A step the run does not list (none should be) goes before the spline.
+                let place = spline.steps.binary_search_by_key(&step, |s| s.0).map_or(0, |i| spline.steps[i].1);
                 (place, at)
             })
             .collect();

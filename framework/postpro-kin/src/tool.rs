@@ -93,7 +93,8 @@ pub fn solve_with_tools(
     }
     let mut from = 0;
     for (b, &(_, length)) in bounds.iter().enumerate() {
-        let end = bounds.get(b + 1).map_or(all.len(), |&(at, _)| from + all[from..].partition_point(|t| t.span.start < at));
+        let end =
+            bounds.get(b + 1).map_or(all.len(), |&(at, _)| from + all[from..].partition_point(|t| t.span.start < at));
         if end == from {
             continue;
         }

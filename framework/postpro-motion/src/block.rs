@@ -80,15 +80,6 @@ pub struct Linear {
     pub via: Vec<Position>,
 }
 
-/// Where the annotations of a step of a B-spline run go.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Placement {
-    /// Before the spline starts (a point carried over from the run before).
-    BeforeStart,
-    /// Before control point `k` (1-based, as written after `BSPLINE`).
-    BeforeControl(usize),
-}
-
 /// A run of feed moves written as one B-spline through the axis positions of its CL points.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spline {
@@ -103,8 +94,10 @@ pub struct Spline {
     /// the midpoints the fit added (of kind `Linearized`, with the step of the CL point they lead
     /// to). The last is the end of the run.
     pub points: Vec<Position>,
-    /// Every step of the run, with where its annotations go.
-    pub steps: Vec<(usize, Placement)>,
+    /// Every step of the run (CL points and the linearization points leading to them), with the
+    /// control point (1-based, as written after `BSPLINE`) their annotations go before: the first
+    /// of the span that ends at the step's CL point.
+    pub steps: Vec<(usize, usize)>,
 }
 
 /// A tool change, with the tool's own offsets.

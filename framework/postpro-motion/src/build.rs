@@ -12,7 +12,7 @@ use postpro_cl::{CutterComp, Delay, FeedPer, ItemKind, Motion, MoveKind, Spindle
 use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind, bspline};
 use postpro_machine::model::Machine;
 
-use crate::block::{Block, BlockKind, FeedWord, Linear, Mode, Placement, Position, Spline, ToolCall};
+use crate::block::{Block, BlockKind, FeedWord, Linear, Mode, Position, Spline, ToolCall};
 use crate::{MotionError, MotionSink, Program, Summary};
 
 /// What the motion program is built for.
@@ -126,8 +126,6 @@ struct Builder<'a> {
     spindle_rpm: Option<f64>,
     /// Bspline mode: the feed moves waiting to be fitted, linearization points included.
     run: Vec<Queued>,
-    /// How many of `run`'s first points were carried over from the run before.
-    carried: usize,
     /// The position before the run: the last step written or queued that is not a
     /// linearization point.
     run_start: Option<(Step, usize)>,
@@ -157,7 +155,6 @@ impl<'a> Builder<'a> {
             tcp_on: false,
             spindle_rpm: None,
             run: Vec::new(),
-            carried: 0,
             run_start: None,
             last_step: None,
             held: Vec::new(),
@@ -393,13 +390,11 @@ impl<'a> Builder<'a> {
     fn flush_run(&mut self, carry: bool) {
         let mut run = std::mem::take(&mut self.run);
         let mut held = std::mem::take(&mut self.held);
-        let carried = std::mem::take(&mut self.carried);
         let start = self.run_start.take();
         // The run up to its last point that is not a linearization point.
         let split = run.iter().rposition(|q| !q.linearized).map_or(0, |i| i + 1);
         if carry && split < run.len() {
             self.run = run.split_off(split);
-            self.carried = self.run.len();
             self.run_start = if split > 0 { Some((run[split - 1].step, run[split - 1].index)) } else { start };
             let from = held.partition_point(|h| h.at < split);
             self.held = held.split_off(from).into_iter().map(|h| Held { at: h.at - split, ..h }).collect();
@@ -430,16 +425,15 @@ impl<'a> Builder<'a> {
             }
             next_held = held.len();
             // A point of rank r (r CL points of the run before it) ends the span that begins
-            // with the control point after that of the point before it.
+            // with the control point after that of the point before it; a linearization point
+            // goes with the CL point it leads to.
             let mut rank = 0;
             let steps = run[..split]
                 .iter()
-                .enumerate()
-                .map(|(p, q)| {
-                    let placement =
-                        if p < carried { Placement::BeforeStart } else { Placement::BeforeControl(index[rank] + 1) };
+                .map(|q| {
+                    let control = index[rank] + 1;
                     rank += usize::from(!q.linearized);
-                    (q.index, placement)
+                    (q.index, control)
                 })
                 .collect();
             let last = points[points.len() - 1];

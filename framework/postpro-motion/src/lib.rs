@@ -12,7 +12,7 @@
 mod block;
 mod build;
 
-pub use block::{Block, BlockKind, FeedWord, Linear, Mode, Placement, Position, Spline, ToolCall};
+pub use block::{Block, BlockKind, FeedWord, Linear, Mode, Position, Spline, ToolCall};
 pub use build::{Options, build, collect};
 
 use postpro_cl::Span;

@@ -220,20 +220,30 @@ fn solve_csv_has_one_column_per_axis() {
     assert_eq!(first.split(',').count(), 9, "{first}");
 }
 
+/// A tilt through the pole from one branch's side to the other is motion: the table turns at the
+/// pole, in large steps that are said, not refused.
+#[test]
+fn a_pass_through_the_pole_turns_the_table_there() {
+    let o = postpro(&["solve", FORCED_SWITCH, "-m", "mikron"]);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains(&format!("{FORCED_SWITCH}:56:1: large rotary step: C 0.000° → -90.000°")), "{out}");
+    assert!(out.contains("axis C      -180.0000 … 0.0000°"), "{out}");
+}
+
+/// A rotary axis at the end of its travel during a feed move is a discontinuity: an error naming
+/// the CL line, or, by policy, a retract.
 #[test]
 fn a_discontinuity_is_an_error_naming_the_line_or_a_retract() {
-    let o = postpro(&["solve", FORCED_SWITCH, "-m", "mikron"]);
+    const TRAVEL_LIMIT: &str = "tests/kin/travel-limit.cl";
+    let o = postpro(&["solve", TRAVEL_LIMIT, "-m", "nutating", "--on-discontinuity", "error"]);
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
-    assert!(err.contains("no continuous solution"), "{err}");
-    assert!(err.contains(&format!("[{FORCED_SWITCH}:57:1]")), "{err}");
-    let o = postpro(&["solve", FORCED_SWITCH, "-m", "mikron", "--on-discontinuity", "retract:20"]);
+    assert!(err.contains("no continuous solution (a rotary axis reaches the end of its travel)"), "{err}");
+    assert!(err.contains(&format!("[{TRAVEL_LIMIT}:82:1]")), "{err}");
+    let o = postpro(&["solve", TRAVEL_LIMIT, "-m", "nutating", "--on-discontinuity", "retract:20"]);
     assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
-    assert!(
-        stdout(&o).contains(&format!("{FORCED_SWITCH}:57:1: retract 20 mm, reorient, re-engage")),
-        "{}",
-        stdout(&o)
-    );
+    assert!(stdout(&o).contains(&format!("{TRAVEL_LIMIT}:82:1: retract 20 mm, reorient, re-engage")), "{}", stdout(&o));
 }
 
 #[test]
