@@ -1008,7 +1008,7 @@ impl<'a> Builder<'a> {
             )
         });
         let mut g1_from = 0;
-        if let Some((spline, _, index)) = fitted {
+        if let Some(crate::bspline::Fit { spline, index, .. }) = fitted {
             let last = *points[points.len() - 1];
             let feed = run.iter().find(|q| !q.linearized).map(|q| q.feed.clone()).unwrap_or_default();
             self.held_upto(&held, &mut next, |h| h.carried);
