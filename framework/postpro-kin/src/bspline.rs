@@ -10,7 +10,8 @@
 //! where it does not, the segment's midpoint is added to the data (its parameter halfway along
 //! the segment's) and the spline is solved again around it: only the control points of a window
 //! of points around each midpoint, those outside held, the window widened until the control
-//! points at its edges have not moved (so that the points outside are still interpolated), and
+//! points at its edges have not moved (by more than 1e-13 of the largest axis value, so that the
+//! points outside are still interpolated to that), and
 //! only the spans the window reaches are checked again. Outside the windows the spline is
 //! unchanged to the last bit, so its earlier check still holds.
 //!
