@@ -122,7 +122,8 @@ pub fn slerp(a: &Unit<Vector3<f64>>, b: &Unit<Vector3<f64>>, t: f64) -> Unit<Vec
     }
 }
 
-fn distance_to_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
+/// The distance of `p` from the segment `a → b`.
+pub(crate) fn distance_to_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
     let ab = b - a;
     let len2 = ab.norm_squared();
     let t = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };

@@ -38,6 +38,20 @@ impl Joints {
         j
     }
 
+    /// From an array whose first `len` values are used (the others are set to zero).
+    pub(crate) fn from_array(mut values: [f64; MAX_AXES], len: usize) -> Joints {
+        let len = len.min(MAX_AXES);
+        for v in values.iter_mut().skip(len) {
+            *v = 0.0;
+        }
+        Joints { values, len: len as u8 }
+    }
+
+    /// Every value of the array, zeros past [`Joints::len`]: for arithmetic on whole arrays.
+    pub(crate) fn array(&self) -> [f64; MAX_AXES] {
+        self.values
+    }
+
     /// The values.
     pub fn as_slice(&self) -> &[f64] {
         &self.values[..self.len as usize]

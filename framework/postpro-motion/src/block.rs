@@ -90,6 +90,8 @@ pub struct Spline {
     /// The tool poses of the points the spline was fitted through, the start first (the CL
     /// points of the run and any midpoints the fit added): the prediction's parameter.
     pub poses: Vec<Pose>,
+    /// The curve's parameter at each of those points.
+    pub params: Vec<f64>,
     /// The points it passes through after the start (`poses[1..]`): the CL points of the run, and
     /// the midpoints the fit added (of kind `Linearized`, with the step of the CL point they lead
     /// to). The last is the end of the run.

@@ -417,7 +417,7 @@ impl<'a> Builder<'a> {
         });
         let mut next_held = 0;
         let mut g1_from = 0;
-        if let Some((curve, poses, index)) = fitted {
+        if let Some(bspline::Fit { spline: curve, poses, params, index }) = fitted {
             // Decisions are held only while carried points wait for their CL point, which
             // this spline reaches: they go before it.
             for h in &held {
@@ -438,7 +438,6 @@ impl<'a> Builder<'a> {
                 .collect();
             let last = points[points.len() - 1];
             // Data point d (after the start) belongs to the first CL point r with index[r] ≥ d.
-            let params = bspline::chord_params(&poses);
             let mut r = 1;
             let data = (1..poses.len())
                 .map(|d| {
@@ -458,7 +457,7 @@ impl<'a> Builder<'a> {
                     }
                 })
                 .collect();
-            let spline = Spline { feed: last.feed, curve, poses, points: data, steps };
+            let spline = Spline { feed: last.feed, curve, poses, params, points: data, steps };
             let span = run[0].step.span;
             self.push(span, BlockKind::Spline(Box::new(spline)));
             self.last_tip = Some(last.step.pose.tip);

@@ -55,6 +55,8 @@ pub struct SplineRun {
     pub curve: bspline::Spline,
     /// The tool poses of the data points, the start first.
     pub poses: Vec<postpro_kin::Pose>,
+    /// The spline's parameter at each data point.
+    pub params: Vec<f64>,
 }
 
 /// The blocks of a program, column-wise. Block `i` moves from `position(i)` to `position(i + 1)`.
@@ -163,7 +165,12 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
                     push_block(&mut out, machine, Timing::TipFeed, at, Feed::PerMinute(spline.feed), &mut state);
                 }
                 if out.len() > first {
-                    out.splines.push(SplineRun { first, curve: spline.curve.clone(), poses: spline.poses.clone() });
+                    out.splines.push(SplineRun {
+                        first,
+                        curve: spline.curve.clone(),
+                        poses: spline.poses.clone(),
+                        params: spline.params.clone(),
+                    });
                 }
             }
             other => state.item(other),

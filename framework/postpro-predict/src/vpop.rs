@@ -21,7 +21,7 @@
 use crate::moves::{BlockKind, Blocks, SplineRun};
 use crate::plan::{Limit, Piece, Track, TrackBuilder};
 use postpro_kin::Kinematics;
-use postpro_kin::bspline::{self, Spline};
+use postpro_kin::bspline::{Cursor, Spline};
 use postpro_machine::model::Machine;
 
 /// What a piece of a track is, for rebuilding the axis motion from the parameter.
@@ -193,8 +193,7 @@ impl<'a> Builder<'a> {
         if blocks.kind[start] == BlockKind::Feed {
             self.reference_feed = feed;
         }
-        let (spline, poses) = (&run.curve, &run.poses);
-        let params = bspline::chord_params(poses);
+        let (spline, poses, params) = (&run.curve, &run.poses, &run.params);
         let which = curves.splines.len();
         let mut corner = match self.last_line {
             Some((previous, _)) if self.track.last_block() == Some(previous) => {
@@ -209,6 +208,9 @@ impl<'a> Builder<'a> {
             }
             _ => f64::INFINITY,
         };
+        // The first knot past the start of the data interval (the knots increase, so do the intervals).
+        let mut knot = 0;
+        let mut cursor = spline.cursor();
         // Data interval `d` ends at data point d + 1: block start + d.
         for d in 0..params.len() - 1 {
             let block = start + d;
@@ -217,12 +219,15 @@ impl<'a> Builder<'a> {
             const PIECES: usize = 4;
             let (s0, s1) = (params[d], params[d + 1]);
             let mut cuts: Vec<f64> = (0..=PIECES).map(|k| s0 + (s1 - s0) * k as f64 / PIECES as f64).collect();
-            cuts.extend(spline.knots.iter().copied().filter(|&k| k > s0 && k < s1));
+            while knot < spline.knots.len() && spline.knots[knot] <= s0 {
+                knot += 1;
+            }
+            cuts.extend(spline.knots[knot..].iter().copied().take_while(|&k| k < s1));
             cuts.sort_by(f64::total_cmp);
             cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * (s1 - s0).max(1e-9));
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
-                let piece = self.curve_piece(spline, kin, from, to, feed);
+                let piece = self.curve_piece(&mut cursor, kin, from, to, feed);
                 self.track.push(piece, block, corner);
                 curves.segments.resize(self.track.len() - 1, Segment::Line);
                 curves.segments.push(Segment::Curve { spline: which, from });
@@ -235,7 +240,7 @@ impl<'a> Builder<'a> {
     }
 
     /// The caps of the spline between parameters `from` and `to`.
-    fn curve_piece(&self, spline: &Spline, kin: &dyn Kinematics, from: f64, to: f64, feed: f64) -> Piece {
+    fn curve_piece(&self, cursor: &mut Cursor<'_>, kin: &dyn Kinematics, from: f64, to: f64, feed: f64) -> Piece {
         let axes = &self.machine.axes;
         let cnc = &self.machine.cnc;
         let mut worst = vec![[0.0_f64; 3]; axes.len()];
@@ -245,7 +250,7 @@ impl<'a> Builder<'a> {
         let inset = 1e-9 * (to - from);
         for p in 0..=PROBES {
             let s = (from + (to - from) * p as f64 / PROBES as f64).clamp(from + inset, to - inset);
-            let d = spline.derivatives(s);
+            let d = cursor.derivatives(s);
             for (a, w) in worst.iter_mut().enumerate() {
                 for order in 0..3 {
                     w[order] = w[order].max(d[order + 1][a].abs());
@@ -253,7 +258,7 @@ impl<'a> Builder<'a> {
             }
             // The tip's rate along the parameter, from the forward kinematics.
             let h = 1e-3 * (to - from).max(1e-9);
-            let (x0, x1) = (kin.forward(&spline.at(s - h)).tip, kin.forward(&spline.at(s + h)).tip);
+            let (x0, x1) = (kin.forward(&cursor.at(s - h)).tip, kin.forward(&cursor.at(s + h)).tip);
             tip_rate = tip_rate.max((x1 - x0).norm() / (2.0 * h));
         }
         let mut piece = Piece {
