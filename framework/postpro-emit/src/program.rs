@@ -906,16 +906,7 @@ impl<'a> Builder<'a> {
                 self.comment(&format!("CUTCOM/{side}: the CL points are tool-centre points; not applied"));
             }
             ItemKind::CycleOn(c) => {
-                let params: Vec<String> = c
-                    .params
-                    .iter()
-                    .map(|(k, v)| match k {
-                        Some(k) if v.is_nan() => k.clone(),
-                        Some(k) => format!("{k} {v}"),
-                        None => v.to_string(),
-                    })
-                    .collect();
-                self.comment(&format!("CYCLE/{} {}: hole positions follow as moves", c.kind, params.join(" ")));
+                self.comment(&format!("CYCLE/{} {}: hole positions follow as moves", c.word, c.args));
             }
             ItemKind::CycleOff => self.comment("CYCLE/OFF"),
             ItemKind::Delay(d) => {
