@@ -441,7 +441,7 @@ impl<S: ItemSink> Builder<'_, S> {
                 format!("--arc-sense {} says so; check that it fits this file", s.name())
             }
             (None, SensePlan::Known(s, ArcSenseOrigin::Tangency { ccw, cw })) => format!(
-                "the CAM system is not recognised; the moves tangent to this file's arcs say {} ({ccw} arcs counter-clockwise, {cw} clockwise); --arc-sense decides otherwise",
+                "the CAM system is not recognised; the moves tangent to this file's arcs say {} ({ccw} arcs counter-clockwise, {cw} clockwise); set --arc-sense to decide otherwise",
                 sense_words(s)
             ),
             _ => "no sense was decided for this file".into(),
@@ -450,7 +450,12 @@ impl<S: ItemSink> Builder<'_, S> {
             Severity::Warning,
             "cl::arc-sense",
             check.span,
-            format!("{} arc read {a} about its axis vector, but {} runs {b} along it", check.word, moves.join(" and ")),
+            format!(
+                "{} arc read {a} about its axis vector, but {} {} {b} along it",
+                check.word,
+                moves.join(" and "),
+                if moves.len() > 1 { "run" } else { "runs" }
+            ),
             format!("kept {a}"),
         )
         .with_word(Some(check.word.into()))

@@ -66,7 +66,8 @@ struct Params {
     clear: Option<(f64, Span)>,
     rapto: Option<(f64, Span)>,
     retract: Option<(f64, Span)>,
-    /// `RTRCTO,AUTO` or `RTRCTO` without a value: to the R plane.
+    /// `RTRCTO,AUTO`, `RTRCTO` without a value, CAMWorks `G99`: to the R plane (a height given
+    /// wins).
     retract_auto: bool,
     /// `RETURN,0`: to the height before the first hole.
     return_to_start: bool,
@@ -99,7 +100,7 @@ struct Cursor<'c, 'a> {
 
 impl<'a> Cursor<'_, 'a> {
     fn peek(&self) -> Option<&'a Arg<'a>> {
-        self.args[self.at..].iter().find(|a| a.value != Value::Empty)
+        self.args.get(self.at..)?.iter().find(|a| a.value != Value::Empty)
     }
 
     fn next(&mut self) -> Option<&'a Arg<'a>> {
@@ -149,9 +150,10 @@ impl<S: ItemSink> Builder<'_, S> {
     pub(super) fn cycle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
         let span = cx.rec.span;
         let args = st.args();
-        let Some(first) = args.iter().find(|a| a.value != Value::Empty) else {
+        let Some(at) = args.iter().position(|a| a.value != Value::Empty) else {
             return self.error(cx, body_span(cx, st), "CYCLE without a kind", format!("expected one of {KNOWN}"));
         };
+        let first = &args[at];
         let Value::Word(word) = first.value else {
             return self.error(cx, arg_span(cx, first), "CYCLE without a kind", format!("expected one of {KNOWN}"));
         };
@@ -182,8 +184,7 @@ impl<S: ItemSink> Builder<'_, S> {
                 format!("expected one of {KNOWN}"),
             );
         };
-        let rest_at = args.iter().position(|a| std::ptr::eq(a, first)).map_or(args.len(), |k| k + 1);
-        let mut cur = Cursor { cx, args, at: rest_at };
+        let mut cur = Cursor { cx, args, at: at + 1 };
         let positional = match cur.peek().map(|a| a.value) {
             Some(Value::Word(w)) => w.eq_ignore_ascii_case("G98") || w.eq_ignore_ascii_case("G99"),
             Some(Value::Num(_)) => self.info.cam_system == Some(CamSystem::CamWorks),
@@ -399,7 +400,8 @@ impl<S: ItemSink> Builder<'_, S> {
                     format!("expected a retract height ≥ the clearance ({clearance})"),
                 ));
             }
-            Some((r, _)) if (r - clearance).abs() <= SAME_LENGTH || p.retract_auto => None,
+            // A height given wins over AUTO; AUTO or nothing: the R plane.
+            Some((r, _)) if (r - clearance).abs() <= SAME_LENGTH => None,
             Some((r, _)) => Some(r),
             None => None,
         };
@@ -442,7 +444,9 @@ impl<S: ItemSink> Builder<'_, S> {
             None => None,
         };
         let feed = match p.feed {
-            Some((v, _, _, s)) if v < 0.0 => return Err(problem(s, "negative feed", "expected a feed ≥ 0")),
+            Some((v, _, _, s)) if v <= 0.0 => {
+                return Err(problem(s, "the cycle's feed is not positive", "expected a feed > 0"));
+            }
             Some((v, per, unit, s)) => {
                 if let Some(u) = unit {
                     self.check_feed_unit(cx, u, per, s);
