@@ -6,7 +6,9 @@
 //! - `reader.rs`: the APT/CL reader (`postpro-cl`) against every real CL file in
 //!   `../shared/data/cl`, the bundled examples in `examples/cl`, and the hand-written cases in
 //!   `tests/cl` (one input per diagnostic class: `err_*.cl`, `warn_*.cl`, and tricky valid
-//!   syntax in `ok_*.cl`), pinned with insta snapshots in `tests/snapshots/`.
+//!   syntax in `ok_*.cl`), pinned with insta snapshots in `tests/snapshots/`; and every real CL
+//!   file under `../shared/data` (corpus, peer inputs, hold-out: [`real_cl_files`]) for its arc
+//!   sense, operations and cycles.
 //!
 //! This library holds the helpers those tests share: where the data lives. The plugin tests of
 //! `postpro-plugins` and `postpro` use it too (as a dev-dependency) to build the plugins of
@@ -98,4 +100,50 @@ pub fn built_plugins() -> &'static Path {
         assert!(out.status.success(), "cargo build of the plugins failed:\n{}", String::from_utf8_lossy(&out.stderr));
         dir
     })
+}
+
+/// The peer post-processor data, `../shared/data/peers` seen from the repository root.
+///
+/// # Panics
+///
+/// When the folder is missing: `../shared` must sit beside the repository.
+pub fn shared_peers_dir() -> PathBuf {
+    let dir = repo_root().join("../shared/data/peers");
+    assert!(dir.is_dir(), "{} is missing: ../shared must sit beside the repository", dir.display());
+    dir
+}
+
+/// Every real CL file under `../shared/data`: the corpus (`cl/`), the inputs of the peer pairs
+/// (`peers/<repo>/[<case>/]input/`) and the hold-out files (`peers/holdout/`), each with a name
+/// relative to `../shared/data`, sorted. Files that are not CL data are left out: notes
+/// (`*.md`), clsplit's measured datum file `FN15RUN.A`, a CATIA PP table and its log.
+pub fn real_cl_files() -> Vec<(String, PathBuf)> {
+    let data = shared_cl_dir().parent().map_or_else(|| PathBuf::from("../shared/data"), Path::to_path_buf);
+    let mut files = Vec::new();
+    let mut walk = vec![data.join("cl"), data.join("peers")];
+    while let Some(dir) = walk.pop() {
+        let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                // Expected outputs are NC programs, not CL.
+                if path.file_name().is_some_and(|n| n != "expected") {
+                    walk.push(path);
+                }
+                continue;
+            }
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let rel = path.strip_prefix(&data).unwrap_or(&path);
+            let rel: String = rel.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/");
+            let in_peers = rel.starts_with("peers/");
+            let cl_place = !in_peers || rel.contains("/input/") || rel.starts_with("peers/holdout/");
+            let not_cl =
+                name.ends_with(".md") || name == "FN15RUN.A" || name.ends_with(".LOG") || name.ends_with(".pptable");
+            if cl_place && !not_cl {
+                files.push((rel, path));
+            }
+        }
+    }
+    files.sort();
+    files
 }

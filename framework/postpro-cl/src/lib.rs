@@ -9,6 +9,11 @@
 //! 2. [`syntax`](crate::syntax): a record → a statement (nom), with what was expected on error;
 //! 3. [`read`]: statements → items, with the modal state (units, frame, tool axis, feed, rapid).
 //!
+//! A pre-scan finds the file's length unit and CAM system first, because the sense of every arc
+//! depends on the CAM system ([`CamSystem::arc_sense`]); [`read_with`] and [`ReadOptions`]
+//! override both (`--arc-sense`, `--cl-units`). Canned cycles come out typed ([`Cycle`]), hole
+//! positions at the top of each hole.
+//!
 //! **The reader never panics and never stops at the first problem:** every problem becomes a
 //! [`Diagnostic`] with a span, and reading goes on with the next statement.
 //!
@@ -33,11 +38,11 @@ use std::path::Path;
 
 pub use diagnostic::{Diagnostic, Severity};
 pub use model::*;
-pub use read::{ItemSink, read, read_into};
+pub use read::{ItemSink, ReadOptions, read, read_into, read_into_with, read_with};
 pub use span::{LineCol, Source, Span};
 pub use summary::{
     BoundingBox, FeedSummary, MoveCounts, PathLength, Range, Summary, ToolSummary, UnitsSummary, WarningSummary,
-    summarize, summarize_tool_path,
+    summarize, summarize_tool_path, summarize_with,
 };
 
 /// Errors of this crate that are not about the content of a CL file (those are diagnostics).

@@ -55,6 +55,9 @@ pub struct ProgramInfo {
     pub statements: usize,
     /// The file is an APT part program (source language), not CL data.
     pub apt_source: bool,
+    /// The sense applied to CIRCLE and MOVARC arcs, where it came from, and how it agreed with
+    /// the moves tangent to the arcs.
+    pub arc_sense: ArcSenseInfo,
 }
 
 /// How often a word occurs and where first.
@@ -98,6 +101,20 @@ pub enum CamSystem {
 }
 
 impl CamSystem {
+    /// The sense in which this CAM system's CIRCLE (or MOVARC) arcs run about the axis vector it
+    /// writes, measured on real files (`docs/cl-reader.md`): clockwise for Siemens NX and Makino
+    /// FFCAM, counter-clockwise for SOLIDWORKS CAM, PTC Creo and Autodesk Fusion. `None` where
+    /// the records spell it out (CAMWorks: `CLOCKWISE`/`COUNTERCLOCKWISE`) or where no file
+    /// showed it (CATIA V5 writes arcs as `TLON,GOFWD` motion, which is geometric; the example
+    /// generator writes no arcs): there the tangency of the neighbouring moves decides.
+    pub fn arc_sense(self) -> Option<ArcSense> {
+        match self {
+            CamSystem::SiemensNx | CamSystem::MakinoFfcam => Some(ArcSense::Cw),
+            CamSystem::SolidworksCam | CamSystem::Creo | CamSystem::Fusion => Some(ArcSense::Ccw),
+            CamSystem::CamWorks | CamSystem::CatiaV5 | CamSystem::PostproExamples => None,
+        }
+    }
+
     /// Every CAM system, in declaration order (`CamSystem as usize` indexes it).
     pub const ALL: [CamSystem; 8] = [
         CamSystem::SiemensNx,
@@ -154,6 +171,81 @@ impl LengthUnit {
     }
 }
 
+/// The sense in which an arc runs about the axis vector written in its `CIRCLE` or `MOVARC`
+/// record (a negative MOVARC `ANGLE` reverses it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ArcSense {
+    /// Clockwise about the axis vector, seen from its tip (left-handed).
+    Cw,
+    /// Counter-clockwise about the axis vector, seen from its tip (right-hand rule).
+    Ccw,
+}
+
+impl ArcSense {
+    /// `cw` or `ccw`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ArcSense::Cw => "cw",
+            ArcSense::Ccw => "ccw",
+        }
+    }
+
+    /// The other sense.
+    pub fn reversed(self) -> ArcSense {
+        match self {
+            ArcSense::Cw => ArcSense::Ccw,
+            ArcSense::Ccw => ArcSense::Cw,
+        }
+    }
+}
+
+/// The sense applied to the arcs of a file whose records do not spell it out.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ArcSenseInfo {
+    /// The sense; `None` when nothing decided it (an error at the first such arc) or no arc
+    /// needed one.
+    pub sense: Option<ArcSense>,
+    /// What decided it.
+    pub origin: ArcSenseOrigin,
+    /// How the arcs agreed with the moves tangent to them.
+    pub checks: ArcChecks,
+}
+
+/// What decided the sense of a file's arcs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ArcSenseOrigin {
+    /// Nothing: no arc needed it, or nothing decided it.
+    #[default]
+    None,
+    /// The recognised CAM system's convention ([`CamSystem::arc_sense`]).
+    CamSystem(CamSystem),
+    /// [`ReadOptions::arc_sense`](crate::ReadOptions::arc_sense) (`--arc-sense`).
+    Option,
+    /// The moves tangent to the arcs, CAM system unknown: arcs whose neighbours say
+    /// counter-clockwise and clockwise about the axis as written.
+    Tangency {
+        /// Arcs whose tangent neighbours say counter-clockwise.
+        ccw: usize,
+        /// Arcs whose tangent neighbours say clockwise.
+        cw: usize,
+    },
+}
+
+/// Arcs checked against the straight moves (or NURBS ends) tangent to them: the move before an
+/// arc must arrive, and the move after it leave, along the arc's direction of motion.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ArcChecks {
+    /// `CIRCLE` and `MOVARC` arcs read (evaluated APT motion excluded: its sense is geometric).
+    pub arcs: usize,
+    /// Arcs with at least one neighbour tangent to the circle (within a few degrees).
+    pub checkable: usize,
+    /// Checkable arcs whose every tangent neighbour agrees with the sense read.
+    pub agree: usize,
+    /// Checkable arcs with a tangent neighbour against the sense read (each has a warning).
+    pub contradict: usize,
+}
+
 /// The file's length unit and where it came from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct UnitsInfo {
@@ -173,6 +265,9 @@ pub enum UnitsOrigin {
     /// Nothing in the file: millimetres assumed.
     #[default]
     Assumed,
+    /// [`ReadOptions::cl_units`](crate::ReadOptions::cl_units) (`--cl-units`), whatever the
+    /// file declares.
+    Option,
 }
 
 /// One item of the tool path with the span of its statement.
@@ -205,7 +300,8 @@ pub enum ItemKind {
     Coolant(Coolant),
     /// Cutter radius compensation.
     CutterComp(CutterComp),
-    /// A canned cycle starts (`CYCLE/…`); the following moves are hole positions.
+    /// A canned cycle starts (`CYCLE/…`); the following moves are hole positions
+    /// ([`MoveKind::Hole`], each at the top of its hole) until [`ItemKind::CycleOff`].
     CycleOn(Box<Cycle>),
     /// The canned cycle ends (`CYCLE/OFF`).
     CycleOff,
@@ -219,7 +315,9 @@ pub enum ItemKind {
     Text(TextKind, String),
     /// A whole-line `$$` comment.
     Comment(String),
-    /// An operation starts (`TOOL PATH/…`, `OPFEATSTART/…`).
+    /// An operation starts, with its name: NX `TOOL PATH/name,…`, CAMWorks `OPFEATSTART/name`,
+    /// CATIA `$$ OPERATION NAME : name`, Creo `$$-> FEATNO / n` (named `FEATNO n`), Makino
+    /// `PPRINT/BEGIN-SECTION,MACHINING` (named `MACHINING`).
     OperationStart(String),
     /// An operation ends (`END-OF-PATH`, `OPFEATEND/…`).
     OperationEnd,
@@ -274,7 +372,8 @@ pub enum MoveKind {
     From,
     /// `GODLTA` (incremental).
     Godlta,
-    /// A hole position between `CYCLE/…` and `CYCLE/OFF`.
+    /// A hole position between `CYCLE/…` and `CYCLE/OFF`: `to` is the top of the hole, where
+    /// the cycle's depth is measured from, whatever the CAM system writes.
     Hole,
 }
 
@@ -459,17 +558,73 @@ pub enum CutterComp {
     Off,
 }
 
-/// A canned cycle as written: its kind and its keyword/value parameters.
+/// A canned cycle: what the machine does at each hole position that follows.
+///
+/// Lengths are millimetres along the tool axis, measured from the hole's top point (the `to` of
+/// each [`MoveKind::Hole`] move): the depth below it, the R plane and the retract height above
+/// it. `docs/cl-reader.md` says how each vendor's form maps to these fields.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cycle {
-    /// `DRILL`, `DEEP`, `DEEP2`, `TAP`, `BORE`, `INIT`, `ON`, … (upper case).
-    pub kind: String,
-    /// Parameters in order: an optional keyword and a value **as written** (`NAN` for a keyword
-    /// without a value). Vendors mix lengths, feeds, counts and times here, so values are not
-    /// converted; multiply lengths by `length_scale` for mm.
-    pub params: Vec<(Option<String>, f64)>,
-    /// Millimetres per length unit of the file (1 or 25.4).
-    pub length_scale: f64,
+    /// The motion at each hole.
+    pub kind: CycleKind,
+    /// Depth of the hole bottom below the hole point, mm (> 0).
+    pub depth: f64,
+    /// The R plane: where the rapid approach ends and the feed starts, mm above the hole point
+    /// (≥ 0).
+    pub clearance: f64,
+    /// Where the tool returns after each hole, mm above the hole point (above the R plane);
+    /// `None`: to the R plane.
+    pub retract: Option<f64>,
+    /// Peck depths, for pecking cycles.
+    pub peck: Option<Peck>,
+    /// Dwell at the bottom of the hole.
+    pub dwell: Option<Delay>,
+    /// The cycle's own feed; `None`: the programmed (modal) feed.
+    pub feed: Option<Feed>,
+    /// The vendor's cycle word, upper case (`DRILL`, `DEEP2`, …).
+    pub word: String,
+    /// The arguments after the cycle word as written (for comments).
+    pub args: String,
+}
+
+/// The motion of a canned cycle at each hole, named by the ISO code it maps to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CycleKind {
+    /// Feed to depth, rapid out: G81; G82 with a dwell at the bottom. (`DRILL`, Creo `FACE` and
+    /// `CSINK`.)
+    Drill,
+    /// Peck drilling, rapid out to the R plane after each peck: G83. (`DEEP`, `DEEP2`, CAMWorks
+    /// `DRILL,…,PECKING`.)
+    Deep,
+    /// Peck drilling with a short retract to break the chip: G73. (`BRKCHP`.)
+    ChipBreak,
+    /// Tapping, the spindle reversing at the bottom: G84. (`TAP`.)
+    Tap,
+    /// Boring, feed in and feed out: G85; G89 with a dwell at the bottom. (`BORE`, `REAM`.)
+    Bore,
+}
+
+impl CycleKind {
+    /// The ISO G code (without the dwell variant).
+    pub fn iso_code(self) -> &'static str {
+        match self {
+            CycleKind::Drill => "G81",
+            CycleKind::Deep => "G83",
+            CycleKind::ChipBreak => "G73",
+            CycleKind::Tap => "G84",
+            CycleKind::Bore => "G85",
+        }
+    }
+}
+
+/// Peck depths of a pecking cycle, mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Peck {
+    /// The first peck.
+    pub first: f64,
+    /// Each following peck.
+    pub next: f64,
 }
 
 /// A dwell.

@@ -316,7 +316,7 @@ fn ends_with_single_dollar(b: &[u8]) -> bool {
 
 /// NX Information-window lines: `Key<TAB>value` header lines before the first statement, and
 /// the `Tool Path Listing has N lines.` footer.
-fn is_listing_line(line: &str, seen_statement: bool) -> bool {
+pub(crate) fn is_listing_line(line: &str, seen_statement: bool) -> bool {
     // Past the header only the footer can occur: a line that starts with `Tool`.
     if seen_statement && !line.trim_start().starts_with("Tool Path Listing") {
         return false;

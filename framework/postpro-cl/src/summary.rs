@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::diagnostic::Diagnostic;
 use crate::model::*;
-use crate::read::{ItemSink, read_into};
+use crate::read::{ItemSink, ReadOptions, read_into_with};
 use crate::span::Source;
 
 /// What `postpro check` reports about a CL file. Field names are the stable JSON keys.
@@ -149,8 +149,13 @@ pub struct WarningSummary {
 
 /// Reads a source and summarises it without keeping the tool path.
 pub fn summarize(source: &Source) -> (Summary, Vec<Diagnostic>) {
+    summarize_with(source, &ReadOptions::default())
+}
+
+/// Reads a source with options and summarises it without keeping the tool path.
+pub fn summarize_with(source: &Source, options: &ReadOptions) -> (Summary, Vec<Diagnostic>) {
     let mut acc = Accumulator::default();
-    let (info, diagnostics) = read_into(source, &mut acc);
+    let (info, diagnostics) = read_into_with(source, options, &mut acc);
     (acc.finish(source, &info, &diagnostics), diagnostics)
 }
 
@@ -346,6 +351,7 @@ impl Accumulator {
             UnitsOrigin::Declared(s) => ("declared", at(s)),
             UnitsOrigin::FeedWord(s) => ("feed word", at(s)),
             UnitsOrigin::Assumed => ("assumed", None),
+            UnitsOrigin::Option => ("option", None),
         };
         let mut warnings = WarningSummary::default();
         for d in diagnostics.iter().filter(|d| !d.is_error()) {

@@ -422,12 +422,8 @@ fn fold_case(kind: &ItemKind) -> ItemKind {
             r.args.make_ascii_uppercase();
         }
         ItemKind::CycleOn(c) => {
-            c.kind.make_ascii_uppercase();
-            for (key, _) in &mut c.params {
-                if let Some(key) = key {
-                    key.make_ascii_uppercase();
-                }
-            }
+            c.word.make_ascii_uppercase();
+            c.args.make_ascii_uppercase();
         }
         _ => {}
     }

@@ -328,16 +328,7 @@ impl<'a> Builder<'a> {
                 BlockKind::Comment(format!("CUTCOM/{side}: the CL points are tool-centre points; not applied"))
             }
             ItemKind::CycleOn(c) => {
-                let params: Vec<String> = c
-                    .params
-                    .iter()
-                    .map(|(k, v)| match k {
-                        Some(k) if v.is_nan() => k.clone(),
-                        Some(k) => format!("{k} {v}"),
-                        None => v.to_string(),
-                    })
-                    .collect();
-                BlockKind::Comment(format!("CYCLE/{} {}: hole positions follow as moves", c.kind, params.join(" ")))
+                BlockKind::Comment(format!("CYCLE/{} {}: hole positions follow as moves", c.word, c.args))
             }
             ItemKind::CycleOff => BlockKind::Comment("CYCLE/OFF".into()),
             ItemKind::Delay(d) => {

@@ -2,14 +2,26 @@
 //! frame, units), the multi-record constructs (arc + end GOTO, NURBS + KNOT + CNTRL, cycles),
 //! and the diagnostics.
 //!
+//! Reading starts with a pre-scan ([`prescan`]) for what every statement needs to know: the
+//! file's length unit and its CAM system (whose arc convention applies to each `CIRCLE` as it is
+//! read). A file whose CAM system has no arc convention and that has arcs is read twice: the first
+//! pass only collects what the moves tangent to the arcs say about their sense ([`arcs`]).
+//!
 //! Frames: the **part frame** is the frame in effect at the first motion (the NX `MSYS` of the
 //! first operation, or the file's own frame). Points written after a later `MSYS` or a CAMWorks
 //! `ROTABL` are transformed into it. SOLIDWORKS CAM writes its points in the world frame already
 //! (its `CSYS` maps world to the setup: the holes of the repeated set-ups in
 //! `manufacture3-top.apt` satisfy it), so `CSYS` is recorded and does not move points.
 
+mod arcs;
+mod cycles;
+mod prescan;
+
 use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 
+use self::arcs::{ArcCheck, Arrival, PendingArc, SensePlan, SenseVotes};
+use self::cycles::{PendingCycle, ReturnPlane};
+use self::prescan::{Prescan, prescan, unit_word};
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::model::*;
 use crate::records::{Record as RawRecord, Splitter, Unit as RawUnit};
@@ -30,17 +42,73 @@ impl ItemSink for Vec<Item> {
     }
 }
 
+/// A sink that drops the items (the survey pass).
+struct Discard;
+
+impl ItemSink for Discard {
+    fn push(&mut self, _: Item) {}
+}
+
+/// What the user says about a file that overrides what the file says.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// The sense in which CIRCLE and MOVARC arcs run about the axis vector as written
+    /// (`--arc-sense cw|ccw`), replacing the CAM system's convention. Arcs whose record spells
+    /// the sense out (`CLOCKWISE`) keep it. The tangency of the neighbouring moves is still
+    /// checked.
+    pub arc_sense: Option<ArcSense>,
+    /// The length unit of the file's values (`--cl-units mm|inch`), replacing its `UNITS`
+    /// statements and the unit words of its feeds.
+    pub cl_units: Option<LengthUnit>,
+}
+
 /// Reads a CL text into a tool path. Never panics; problems are in `diagnostics`.
 pub fn read(source: &Source) -> ToolPath {
+    read_with(source, &ReadOptions::default())
+}
+
+/// Reads a CL text into a tool path, with options. Never panics; problems are in `diagnostics`.
+pub fn read_with(source: &Source, options: &ReadOptions) -> ToolPath {
     let mut items = Vec::with_capacity(source.text().len() / 48);
-    let (info, diagnostics) = read_into(source, &mut items);
+    let (info, diagnostics) = read_into_with(source, options, &mut items);
     ToolPath { items, info, diagnostics }
 }
 
 /// Reads a CL text, handing each item to `sink` as soon as it is complete.
 pub fn read_into(source: &Source, sink: &mut impl ItemSink) -> (ProgramInfo, Vec<Diagnostic>) {
-    let mut b = Builder::new(source.text(), sink);
-    for unit in Splitter::new(source.text()) {
+    read_into_with(source, &ReadOptions::default(), sink)
+}
+
+/// Reads a CL text with options, handing each item to `sink` as soon as it is complete.
+pub fn read_into_with(
+    source: &Source,
+    options: &ReadOptions,
+    sink: &mut impl ItemSink,
+) -> (ProgramInfo, Vec<Diagnostic>) {
+    let pre = prescan(source.text());
+    let known = match options.arc_sense {
+        Some(s) => Some(SensePlan::Known(s, ArcSenseOrigin::Option)),
+        None => pre.cam.and_then(|c| c.arc_sense().map(|s| SensePlan::Known(s, ArcSenseOrigin::CamSystem(c)))),
+    };
+    let plan = match known {
+        Some(plan) => plan,
+        None if pre.arc_records > 0 => pass(source.text(), options, &pre, SensePlan::Survey, &mut Discard).2.plan(),
+        None => SensePlan::Unknown { ccw: 0, cw: 0 },
+    };
+    let (info, diagnostics, _) = pass(source.text(), options, &pre, plan, sink);
+    (info, diagnostics)
+}
+
+/// One reading pass.
+fn pass(
+    src: &str,
+    options: &ReadOptions,
+    pre: &Prescan,
+    sense: SensePlan,
+    sink: &mut impl ItemSink,
+) -> (ProgramInfo, Vec<Diagnostic>, SenseVotes) {
+    let mut b = Builder::new(src, sink, options, pre, sense);
+    for unit in Splitter::new(src) {
         b.unit(unit);
     }
     b.finish()
@@ -53,19 +121,11 @@ const MAX_DIAGNOSTICS: usize = 10_000;
 /// (a million metres; also mm/min, rpm, s, rad): beyond it sums and lengths could overflow.
 const MAX_MAGNITUDE: f64 = 1e9;
 
+/// The help of the warnings about contradicting unit words.
+const UNITS_HELP: &str = "if the CAM post wrote the wrong unit, read the file with --cl-units mm|inch";
+
 /// Tolerance on a unit vector's length before a warning.
 const UNIT_TOLERANCE: f64 = 1e-3;
-
-struct PendingArc {
-    center: Point3<f64>,
-    normal: Unit<Vector3<f64>>,
-    radius: Option<f64>,
-    /// Extra full turns (NX `TIMES,n`) or the sweep in radians (MOVARC).
-    turns: u32,
-    sweep: Option<f64>,
-    span: Span,
-    word: &'static str,
-}
 
 struct PendingNurbs {
     /// False after an error at `NURBS/`: its records are swallowed without more errors.
@@ -101,7 +161,21 @@ struct Builder<'s, S> {
     tool_name: Option<String>,
     last_spindle: Option<(f64, SpindleUnit)>,
     camworks_vocabulary: bool,
-    cam: CamEvidence,
+    options: ReadOptions,
+    /// How arcs get their sense.
+    sense: SensePlan,
+    sense_error_reported: bool,
+    arc_info: ArcSenseInfo,
+    /// Survey votes.
+    votes: SenseVotes,
+    /// How the tool arrived at the current position, for the next arc's check.
+    arrival: Option<Arrival>,
+    /// The last arc, until the move after it is known.
+    arc_check: Option<ArcCheck>,
+    /// A cycle whose retract height waits for its first hole (Creo/CATIA `RETURN,0`).
+    cycle_pending: Option<PendingCycle>,
+    /// Where a `RETURN,0` cycle returns to between its holes.
+    cycle_return: Option<ReturnPlane>,
     fini_at: Option<Span>,
     warned_after_fini: bool,
     feed_unit_conflicts: usize,
@@ -110,7 +184,7 @@ struct Builder<'s, S> {
 }
 
 impl<'s, S: ItemSink> Builder<'s, S> {
-    fn new(src: &'s str, sink: &'s mut S) -> Self {
+    fn new(src: &'s str, sink: &'s mut S, options: &ReadOptions, pre: &Prescan, sense: SensePlan) -> Self {
         let mut b = Builder {
             src,
             sink,
@@ -134,15 +208,27 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             nurbs: None,
             tool_name: None,
             last_spindle: None,
-            camworks_vocabulary: false,
-            cam: CamEvidence::default(),
+            camworks_vocabulary: pre.cam == Some(CamSystem::CamWorks),
+            options: *options,
+            sense,
+            sense_error_reported: false,
+            arc_info: ArcSenseInfo::default(),
+            votes: SenseVotes::default(),
+            arrival: None,
+            arc_check: None,
+            cycle_pending: None,
+            cycle_return: None,
             fini_at: None,
             warned_after_fini: false,
             feed_unit_conflicts: 0,
             apt_source_statements: 0,
             first_apt_source: None,
         };
-        b.info.units = prescan_units(src);
+        b.info.cam_system = pre.cam;
+        b.info.units = match options.cl_units {
+            Some(unit) => UnitsInfo { unit, origin: UnitsOrigin::Option },
+            None => pre.units,
+        };
         b.unit = b.info.units.unit;
         b.scale = b.unit.to_mm();
         b
@@ -190,13 +276,13 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         match unit {
             RawUnit::Statement(rec) => self.record(&rec),
             RawUnit::Comment { span, text } => {
-                self.vote_comment(text);
-                self.emit(span, ItemKind::Comment(text.trim_end().to_string()));
+                let kind = match comment_operation(text) {
+                    Some(name) => ItemKind::OperationStart(name),
+                    None => ItemKind::Comment(text.trim_end().to_string()),
+                };
+                self.emit(span, kind);
             }
-            RawUnit::Listing => {
-                self.info.listing_lines += 1;
-                self.cam.vote(CamSystem::SiemensNx);
-            }
+            RawUnit::Listing => self.info.listing_lines += 1,
         }
     }
 
@@ -352,12 +438,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             Word::Pprint | Word::Insert | Word::Tprint | Word::Partno | Word::Remark => self.text(cx, st),
             Word::OpFeatStart => {
                 self.camworks_vocabulary = true;
-                self.cam.vote(CamSystem::CamWorks);
                 self.emit(span, ItemKind::OperationStart(text_of(st).unwrap_or_default().to_string()));
             }
             Word::OpFeatEnd => self.emit(span, ItemKind::OperationEnd),
             Word::ToolPath => {
-                self.cam.vote(CamSystem::SiemensNx);
                 let (op, tool) = tool_path_names(st);
                 self.tool_name = tool;
                 self.emit(span, ItemKind::OperationStart(op));
@@ -450,6 +534,19 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         self.identity_frame = self.to_part.translation.vector.norm() < 1e-12 && self.to_part.rotation.angle() < 1e-12;
     }
 
+    /// A straight move to `to` (not a hole): its direction concludes the last arc's check and
+    /// is the arrival direction for the next arc. A move of no length changes neither.
+    fn straight(&mut self, span: Span, to: Point3<f64>) {
+        if let Some(from) = self.position
+            && to != from
+        {
+            let arrival = Arrival { direction: to - from, span };
+            self.arc_arrival(Some(arrival));
+            self.arrival = Some(arrival);
+        }
+        self.position = Some(to);
+    }
+
     fn motion(&mut self) -> Motion {
         if std::mem::take(&mut self.rapid) { Motion::Rapid } else { self.feed }
     }
@@ -460,29 +557,38 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
         // RAPID applies to this statement even when it fails.
         let motion = self.motion();
-        let Some(v) = self.numbers(cx, st, "GOTO/x,y,z[,i,j,k]") else { return };
+        let Some(to) = self.position_args(cx, st, "GOTO/x,y,z[,i,j,k]") else { return };
+        if self.arc.is_some() {
+            return self.finish_arc(cx, to, motion);
+        }
+        if self.in_cycle {
+            return self.hole(cx, to, motion);
+        }
+        self.straight(cx.rec.span, to);
+        self.emit(cx.rec.span, ItemKind::Move(Move { to, axis: self.axis, motion, kind: MoveKind::Goto }));
+    }
+
+    /// `form` = `WORD/x,y,z[,i,j,k]`: the point in the part frame; a tool axis given becomes the
+    /// modal one. `None` after a diagnostic.
+    fn position_args(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, form: &str) -> Option<Point3<f64>> {
+        let v = self.numbers(cx, st, form)?;
         if v.len() != 3 && v.len() != 6 {
+            let word = form.split('/').next().unwrap_or(form);
             let span = body_span(cx, st);
-            return self.error(
+            self.error(
                 cx,
                 span,
-                format!("GOTO has {} values", v.len()),
+                format!("{word} has {} values", v.len()),
                 "expected 3 values (x,y,z) or 6 (x,y,z,i,j,k)",
             );
+            return None;
         }
         self.fix_part_frame();
         if v.len() == 6 {
             let span = args_span(cx, st, 3, 6);
-            let Some(axis) = self.direction(cx, span, v[3], v[4], v[5]) else { return };
-            self.axis = axis;
+            self.axis = self.direction(cx, span, v[3], v[4], v[5])?;
         }
-        let to = self.point(v[0], v[1], v[2]);
-        if self.arc.is_some() {
-            return self.finish_arc(cx, to, motion);
-        }
-        let kind = if self.in_cycle { MoveKind::Hole } else { MoveKind::Goto };
-        self.position = Some(to);
-        self.emit(cx.rec.span, ItemKind::Move(Move { to, axis: self.axis, motion, kind }));
+        Some(self.point(v[0], v[1], v[2]))
     }
 
     fn from(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
@@ -491,23 +597,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
         // FROM is a positioning: it takes a pending RAPID with it.
         self.rapid = false;
-        let Some(v) = self.numbers(cx, st, "FROM/x,y,z[,i,j,k]") else { return };
-        if v.len() != 3 && v.len() != 6 {
-            let span = body_span(cx, st);
-            return self.error(
-                cx,
-                span,
-                format!("FROM has {} values", v.len()),
-                "expected 3 values (x,y,z) or 6 (x,y,z,i,j,k)",
-            );
-        }
-        self.fix_part_frame();
-        if v.len() == 6 {
-            let span = args_span(cx, st, 3, 6);
-            let Some(axis) = self.direction(cx, span, v[3], v[4], v[5]) else { return };
-            self.axis = axis;
-        }
-        let to = self.point(v[0], v[1], v[2]);
+        let Some(to) = self.position_args(cx, st, "FROM/x,y,z[,i,j,k]") else { return };
+        // A start point, not a move: no direction for an arc's check.
+        self.arc_arrival(None);
+        self.arrival = None;
         self.position = Some(to);
         self.emit(
             cx.rec.span,
@@ -547,7 +640,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         };
         let to = from + delta;
         let motion = self.motion();
-        self.position = Some(to);
+        self.straight(cx.rec.span, to);
         self.emit(cx.rec.span, ItemKind::Move(Move { to, axis: self.axis, motion, kind: MoveKind::Godlta }));
     }
 
@@ -562,23 +655,15 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             match a.value {
                 Value::Num(v) if value.is_none() => value = Some((v, arg_span(cx, a))),
                 Value::Word(w) => {
-                    let u = match w.to_ascii_uppercase().as_str() {
-                        "MMPM" => (FeedPer::Minute, Some(LengthUnit::Mm)),
-                        "IPM" => (FeedPer::Minute, Some(LengthUnit::Inch)),
-                        "MMPR" => (FeedPer::Revolution, Some(LengthUnit::Mm)),
-                        "IPR" => (FeedPer::Revolution, Some(LengthUnit::Inch)),
-                        "PERMIN" | "FPM" => (FeedPer::Minute, None),
-                        "PERREV" | "FPR" => (FeedPer::Revolution, None),
-                        _ => {
-                            self.warn(
-                                cx,
-                                arg_span(cx, a),
-                                format!("unknown feed word `{w}`"),
-                                "ignored",
-                                Some("known: MMPM, IPM, MMPR, IPR, PERMIN, PERREV".into()),
-                            );
-                            continue;
-                        }
+                    let Some(u) = feed_word(w) else {
+                        self.warn(
+                            cx,
+                            arg_span(cx, a),
+                            format!("unknown feed word `{w}`"),
+                            "ignored",
+                            Some("known: MMPM, IPM, MMPR, IPR, PERMIN, PERREV".into()),
+                        );
+                        continue;
                     };
                     unit = Some((u.0, u.1, arg_span(cx, a)));
                 }
@@ -594,28 +679,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             return self.error(cx, vspan, "negative feed", "expected a feed ≥ 0");
         }
         let (per, length) = unit.map_or((FeedPer::Minute, None), |(p, l, _)| (p, l));
-        if let (Some(len), Some((_, _, uspan))) = (length, unit)
-            && len != self.unit
-        {
-            self.feed_unit_conflicts += 1;
-            if self.feed_unit_conflicts == 1 {
-                let file = self.unit.name();
-                let origin = match self.info.units.origin {
-                    UnitsOrigin::Declared(_) => "the UNITS statement",
-                    UnitsOrigin::FeedWord(_) => "the first FEDRAT",
-                    UnitsOrigin::Assumed => "the default",
-                };
-                self.warn(
-                    cx,
-                    uspan,
-                    format!("feed unit contradicts the file's units ({file}, from {origin})"),
-                    format!(
-                        "read as {file} per {} to stay consistent with the coordinates",
-                        if per == FeedPer::Minute { "minute" } else { "revolution" }
-                    ),
-                    Some("check the CAM post's unit settings; reported once per file".into()),
-                );
-            }
+        if let (Some(len), Some((_, _, uspan))) = (length, unit) {
+            self.check_feed_unit(cx, len, per, uspan);
         }
         if v == 0.0 {
             self.warn(cx, vspan, "zero feed", "the moves that follow do not progress", None);
@@ -623,277 +688,34 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         self.feed = Motion::Feed(Feed { value: v * self.scale, per });
     }
 
-    // ----- arcs -----------------------------------------------------------------------------
-
-    fn circle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let Body::Args(args) = st.body else {
-            let span = cx.rec.span;
-            return self.error(cx, span, "CIRCLE without arguments", "expected CIRCLE/cx,cy,cz,i,j,k[,r,…]");
+    /// A feed's unit word against the file's unit: the value is read in the file's unit, so that
+    /// feeds stay consistent with the coordinates; one warning per file. Silent with
+    /// `--cl-units`, which says what unit the values are in.
+    fn check_feed_unit(&mut self, cx: &Ctx<'_>, written: LengthUnit, per: FeedPer, span: Span) {
+        if written == self.unit || self.options.cl_units.is_some() {
+            return;
+        }
+        self.feed_unit_conflicts += 1;
+        if self.feed_unit_conflicts > 1 {
+            return;
+        }
+        let file = self.unit.name();
+        let origin = match self.info.units.origin {
+            UnitsOrigin::Declared(_) => "the UNITS statement",
+            UnitsOrigin::FeedWord(_) => "the first FEDRAT",
+            UnitsOrigin::Assumed => "the default",
+            UnitsOrigin::Option => "--cl-units",
         };
-        let mut nums: smallvec::SmallVec<[f64; 16]> = smallvec::SmallVec::new();
-        let mut direction = None;
-        let mut turns = 0u32;
-        let mut i = 0;
-        while i < args.len() {
-            let a = &args[i];
-            match a.value {
-                Value::Num(v) => nums.push(v),
-                Value::Word(w) if w.eq_ignore_ascii_case("CLOCKWISE") || w.eq_ignore_ascii_case("CLW") => {
-                    direction = Some(-1.0)
-                }
-                Value::Word(w) if w.eq_ignore_ascii_case("COUNTERCLOCKWISE") || w.eq_ignore_ascii_case("CCLW") => {
-                    direction = Some(1.0)
-                }
-                Value::Word(w) if w.eq_ignore_ascii_case("TIMES") => {
-                    match args.get(i + 1).map(|a| a.value) {
-                        Some(Value::Num(n)) if n >= 1.0 && n.fract() == 0.0 && n < 1e6 => turns = n as u32,
-                        _ => {
-                            return self.error(
-                                cx,
-                                arg_span(cx, a),
-                                "TIMES needs a whole number of turns",
-                                "expected TIMES,n with n ≥ 1",
-                            );
-                        }
-                    }
-                    i += 1;
-                }
-                Value::Empty => {}
-                _ => {
-                    return self.error(
-                        cx,
-                        arg_span(cx, a),
-                        "unexpected CIRCLE argument",
-                        "expected a number, CLOCKWISE, COUNTERCLOCKWISE or TIMES,n",
-                    );
-                }
-            }
-            i += 1;
-        }
-        if nums.len() < 6 || nums.iter().any(|v| !v.is_finite()) {
-            let span = body_span(cx, st);
-            return self.error(
-                cx,
-                span,
-                format!("CIRCLE has {} numbers", nums.len()),
-                "expected at least the centre and axis: cx,cy,cz,i,j,k[,r]",
-            );
-        }
-        let span = body_span(cx, st);
-        let Some(mut normal) = self.direction(cx, args_span(cx, st, 3, 6), nums[3], nums[4], nums[5]) else { return };
-        if direction == Some(-1.0) {
-            normal = -normal;
-        }
-        let radius = nums.get(6).map(|r| r * self.scale);
-        if radius.is_some_and(|r| r <= 0.0) {
-            return self.error(cx, span, "CIRCLE radius is not positive", "expected a radius > 0");
-        }
-        // NX TIMES,n: n turns in all, i.e. n-1 full turns besides the final partial one.
-        let turns = turns.saturating_sub(1);
-        let center = self.point(nums[0], nums[1], nums[2]);
-        self.arc = Some(PendingArc { center, normal, radius, turns, sweep: None, span: cx.rec.span, word: "CIRCLE" });
-    }
-
-    fn movarc(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let Body::Args(args) = st.body else {
-            let span = cx.rec.span;
-            return self.error(cx, span, "MOVARC without arguments", "expected MOVARC/cx,cy,cz,i,j,k,r,ANGLE,deg");
-        };
-        let mut nums: smallvec::SmallVec<[f64; 8]> = smallvec::SmallVec::new();
-        let mut angle = None;
-        let mut k = 0;
-        while k < args.len() {
-            match args[k].value {
-                Value::Num(v) => nums.push(v),
-                Value::Word(w) if w.eq_ignore_ascii_case("ANGLE") => {
-                    if let Some(Value::Num(a)) = args.get(k + 1).map(|a| a.value) {
-                        angle = Some(a);
-                        k += 1;
-                    }
-                }
-                _ => {}
-            }
-            k += 1;
-        }
-        let span = body_span(cx, st);
-        let (Some(angle), 7) = (angle, nums.len()) else {
-            return self.error(cx, span, "malformed MOVARC", "expected MOVARC/cx,cy,cz,i,j,k,r,ANGLE,deg");
-        };
-        let Some(mut normal) = self.direction(cx, span, nums[3], nums[4], nums[5]) else { return };
-        if angle < 0.0 {
-            normal = -normal;
-        }
-        self.cam.vote(CamSystem::Fusion);
-        let sweep = angle.abs().to_radians();
-        let center = self.point(nums[0], nums[1], nums[2]);
-        let radius = Some(nums[6] * self.scale);
-        self.arc = Some(PendingArc {
-            center,
-            normal,
-            radius,
-            turns: 0,
-            sweep: Some(sweep),
-            span: cx.rec.span,
-            word: "MOVARC",
-        });
-    }
-
-    fn abandon_arc(&mut self) {
-        if let Some(arc) = self.arc.take() {
-            let message = format!("{} is not followed by its end point", arc.word);
-            self.arc_error(&arc, arc.span, message, "expected a GOTO to the arc's end point next");
-        }
-    }
-
-    /// A diagnostic about an arc, counted under the arc's word (not the GOTO that ends it).
-    fn arc_error(&mut self, arc: &PendingArc, span: Span, message: String, label: &str) {
-        let d = Diagnostic::new(Severity::Error, "cl::statement", span, message, label.into());
-        self.diag(d.with_word(Some(arc.word.into())));
-    }
-
-    fn finish_arc(&mut self, cx: &Ctx<'_>, end: Point3<f64>, motion: Motion) {
-        let Some(arc) = self.arc.take() else { return };
-        let span = arc.span.to(cx.rec.span);
-        let Some(start) = self.position else {
-            let message = format!("{} with no start point", arc.word);
-            return self.arc_error(&arc, arc.span, message, "expected a GOTO or FROM before the arc");
-        };
-        let n = arc.normal.into_inner();
-        let radial = |p: Point3<f64>| {
-            let d = p - arc.center;
-            d - n * d.dot(&n)
-        };
-        let (rs, re) = (radial(start), radial(end));
-        let radius = arc.radius.unwrap_or_else(|| rs.norm());
-        // Files print 4 to 6 decimals: allow for their rounding, in the file's unit.
-        let tol = (radius * 1e-3).max(0.005 * self.scale);
-        if (rs.norm() - radius).abs() > tol || (re.norm() - radius).abs() > tol {
-            let (ds, de) = (rs.norm() - radius, re.norm() - radius);
-            let message = format!(
-                "{} end points are off the circle (start {ds:+.4} mm, end {de:+.4} mm from r = {radius:.4})",
-                arc.word
-            );
-            let d = Diagnostic::new(Severity::Warning, "cl::statement", span, message, "arc kept as written".into());
-            self.diag(d.with_word(Some(arc.word.into())));
-        }
-        if rs.norm() < 1e-9 || re.norm() < 1e-9 {
-            let message = format!("{} starts or ends at its centre", arc.word);
-            return self.arc_error(&arc, span, message, "expected end points on the circle");
-        }
-        let mut sweep = rs.cross(&re).dot(&n).atan2(rs.dot(&re));
-        if sweep <= 1e-12 {
-            sweep += std::f64::consts::TAU;
-        }
-        sweep += f64::from(arc.turns) * std::f64::consts::TAU;
-        if let Some(given) = arc.sweep {
-            let full = (given / std::f64::consts::TAU).floor();
-            let candidate = sweep % std::f64::consts::TAU + full * std::f64::consts::TAU;
-            sweep = if (candidate - given).abs() < 1e-3 { candidate } else { given.max(sweep) };
-        }
-        self.position = Some(end);
-        let arc = Arc { start, center: arc.center, normal: arc.normal, radius, end, sweep, axis: self.axis, motion };
-        self.emit(span, ItemKind::Arc(Box::new(arc)));
-    }
-
-    /// `TLON,GOFWD/(CIRCLE/cx,cy,cz,r),ON,(LINE/x1,y1,z1,x2,y2,z2)`: the arc from the current point
-    /// around the circle, leaving in the INDIRV direction, ending on the line.
-    fn go_motion(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let span = cx.rec.span;
-        let expected = "expected TLON,GOFWD/(CIRCLE/cx,cy,cz,r),ON,(LINE/x1,y1,z1,x2,y2,z2)";
-        let Body::Args(args) = st.body else { return self.apt_source(cx, st) };
-        let groups: smallvec::SmallVec<[(&str, &Arg<'_>); 2]> =
-            args.iter().filter_map(|a| if let Value::Group(g) = a.value { Some((g, a)) } else { None }).collect();
-        let modifier_on = args.iter().any(|a| matches!(a.value, Value::Word(w) if w.eq_ignore_ascii_case("ON")));
-        if groups.len() != 2 || !modifier_on || !st.major.to_ascii_uppercase().ends_with("GOFWD") {
-            return self.apt_source(cx, st);
-        }
-        let parse_group = |(g, a): (&str, &Arg<'_>)| -> Option<(Word, Vec<f64>, Span)> {
-            let mut buf = syntax::Args::new();
-            let s = syntax::statement(g, &mut buf).ok()?;
-            let nums = match &s.body {
-                Body::Args(x) => x
-                    .iter()
-                    .map(|x| if let Value::Num(v) = x.value { Some(v) } else { None })
-                    .collect::<Option<Vec<_>>>()?,
-                _ => return None,
-            };
-            Some((s.word, nums, arg_span(cx, a)))
-        };
-        let (Some(circle), Some(line)) = (parse_group(groups[0]), parse_group(groups[1])) else {
-            return self.error(cx, span, "cannot evaluate APT motion", expected);
-        };
-        if circle.0 != Word::Circle || circle.1.len() != 4 || line.1.len() != 6 || !line_word(groups[1].0) {
-            return self.error(cx, circle.2.to(line.2), "cannot evaluate APT motion", expected);
-        }
-        let Some(start) = self.position else {
-            return self.error(cx, span, "APT motion with no start point", "expected a GOTO or FROM before it");
-        };
-        let Some(dir) = self.indirv else {
-            return self.error(cx, span, "APT motion without a direction", "expected INDIRV/i,j,k before GOFWD");
-        };
-        let c = self.point(circle.1[0], circle.1[1], circle.1[2]);
-        let r = circle.1[3] * self.scale;
-        let p1 = self.point(line.1[0], line.1[1], line.1[2]);
-        let p2 = self.point(line.1[3], line.1[4], line.1[5]);
-        let radial = start - c;
-        let Some(normal) = Unit::try_new(radial.cross(&dir), 1e-9) else {
-            return self.error(
-                cx,
-                span,
-                "INDIRV is along the radius",
-                "expected a direction that leaves the circle tangentially",
-            );
-        };
-        if (radial.norm() - r).abs() > (r * 1e-3).max(0.002) {
-            self.warn(
-                cx,
-                circle.2,
-                format!("the start point is {:+.4} mm off the circle", radial.norm() - r),
-                "arc kept as written",
-                None,
-            );
-        }
-        // Intersections of the circle (centre c, radius r, plane ⟂ normal) with the line.
-        let d = p2 - p1;
-        let (u, v) = (radial.normalize(), normal.cross(&radial).normalize());
-        let mut best: Option<(f64, Point3<f64>)> = None;
-        for k in 0..720 {
-            // Coarse scan of the sweep, then refine by bisection on the distance to the line.
-            let a0 = f64::from(k) * std::f64::consts::TAU / 720.0;
-            let a1 = a0 + std::f64::consts::TAU / 720.0;
-            let f = |a: f64| {
-                let p = c + (u * a.cos() + v * a.sin()) * r;
-                let w = p - p1;
-                // Signed distance in the circle's plane, across the line.
-                w.cross(&d).dot(&normal)
-            };
-            let (f0, f1) = (f(a0), f(a1));
-            if f0.signum() != f1.signum() {
-                let (mut lo, mut hi) = (a0, a1);
-                for _ in 0..60 {
-                    let mid = 0.5 * (lo + hi);
-                    if f(lo).signum() == f(mid).signum() { lo = mid } else { hi = mid }
-                }
-                let a = 0.5 * (lo + hi);
-                if a > 1e-9 {
-                    best = Some((a, c + (u * a.cos() + v * a.sin()) * r));
-                    break;
-                }
-            }
-        }
-        let Some((sweep, end)) = best else {
-            return self.error(
-                cx,
-                line.2,
-                "the circle does not meet the LINE",
-                "expected a LINE that crosses the CIRCLE",
-            );
-        };
-        let motion = self.motion();
-        self.position = Some(end);
-        let arc = Arc { start, center: c, normal, radius: r, end, sweep, axis: self.axis, motion };
-        self.indirv = Some(normal.cross(&(end - c)).normalize());
-        self.emit(span, ItemKind::Arc(Box::new(arc)));
+        self.warn(
+            cx,
+            span,
+            format!("feed unit contradicts the file's units ({file}, from {origin})"),
+            format!(
+                "read as {file} per {} to stay consistent with the coordinates",
+                if per == FeedPer::Minute { "minute" } else { "revolution" }
+            ),
+            Some(format!("{UNITS_HELP}; reported once per file")),
+        );
     }
 
     // ----- NURBS ----------------------------------------------------------------------------
@@ -966,6 +788,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         knots.extend(std::iter::repeat_n(last, degree));
         let end = n.control[count - 1];
         let motion = self.motion();
+        // A clamped spline leaves its first control point towards the second and arrives at the
+        // last from the one before.
+        self.arc_arrival(Some(Arrival { direction: n.control[1] - n.control[0], span: n.span }));
+        self.arrival = Some(Arrival { direction: end - n.control[count - 2], span: n.span });
         self.position = Some(end);
         let nurbs = Nurbs { degree, knots, control: n.control, axis: self.axis, motion };
         self.emit(n.span, ItemKind::Nurbs(Box::new(nurbs)));
@@ -1140,44 +966,6 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
     }
 
-    fn cycle(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
-        let span = cx.rec.span;
-        let args = st.args();
-        let Some(Value::Word(kind)) = args.first().map(|a| a.value) else {
-            return self.error(
-                cx,
-                body_span(cx, st),
-                "CYCLE without a kind",
-                "expected CYCLE/DRILL, DEEP, TAP, BORE, … or CYCLE/OFF",
-            );
-        };
-        let kind = kind.to_ascii_uppercase();
-        if kind == "OFF" {
-            self.in_cycle = false;
-            return self.emit(span, ItemKind::CycleOff);
-        }
-        let mut params = Vec::new();
-        let mut key: Option<String> = None;
-        for a in &args[1..] {
-            match a.value {
-                Value::Word(w) => {
-                    if let Some(k) = key.take() {
-                        params.push((Some(k), f64::NAN));
-                    }
-                    key = Some(w.to_ascii_uppercase());
-                }
-                Value::Num(v) => params.push((key.take(), v)),
-                _ => {}
-            }
-        }
-        if let Some(k) = key {
-            params.push((Some(k), f64::NAN));
-        }
-        // INIT and ON announce a cycle whose parameters follow in the next CYCLE record.
-        self.in_cycle = kind != "INIT" && kind != "ON" || self.in_cycle;
-        self.emit(span, ItemKind::CycleOn(Box::new(Cycle { kind, params, length_scale: self.scale })));
-    }
-
     fn delay(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
         let args = st.args();
         let rev = args.iter().any(|a| matches!(a.value, Value::Word(w) if w.eq_ignore_ascii_case("REV")));
@@ -1206,10 +994,11 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         if kind == TextKind::Partno && self.info.part_name.is_none() {
             self.info.part_name = Some(text.trim_matches('\'').to_string());
         }
-        if kind == TextKind::Pprint && text.to_ascii_uppercase().starts_with("APTCL-SPEC,MAKINO") {
-            self.cam.header(CamSystem::MakinoFfcam);
+        if let Some(name) = text_operation(kind, text) {
+            return self.emit(cx.rec.span, ItemKind::OperationStart(name));
         }
-        if kind == TextKind::Remark {
+        // Creo writes its comments as REMARK in one output style; elsewhere REMARK is APT source.
+        if kind == TextKind::Remark && self.info.cam_system != Some(CamSystem::Creo) {
             self.note_apt_source(cx.rec.span);
         }
         self.emit(cx.rec.span, ItemKind::Text(kind, text.to_string()));
@@ -1302,7 +1091,6 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 "expected 12 values: a 3×4 matrix, row by row",
             );
         };
-        self.cam.vote(CamSystem::SolidworksCam);
         let change = FrameChange { source: FrameSource::Csys(m), to_part: self.to_part };
         self.emit(cx.rec.span, ItemKind::Frame(Box::new(change)));
     }
@@ -1388,6 +1176,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         let Some(unit) = first_word(st).and_then(unit_word) else {
             return self.error(cx, body_span(cx, st), "unknown unit", "expected UNITS/MM or UNITS/INCHES");
         };
+        // `--cl-units` replaces what the file declares.
+        if self.options.cl_units.is_some() {
+            return;
+        }
         if unit != self.unit {
             let (old, new) = (self.unit.name(), unit.name());
             self.warn(
@@ -1395,7 +1187,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 cx.rec.span,
                 format!("units change from {old} to {new}"),
                 format!("values from here on read in {new}"),
-                None,
+                Some(UNITS_HELP.into()),
             );
             self.unit = unit;
             self.scale = unit.to_mm();
@@ -1410,15 +1202,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     fn carry(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, unknown: bool) {
         let word = cx.word_name();
-        match word.as_str() {
-            "CSI_SET_FLUTE_LENGTH" | "TRNTYP" => self.cam.vote(CamSystem::SolidworksCam),
-            "MOVE_ATTRIB" | "BOX" => {
-                self.camworks_vocabulary = true;
-                self.cam.vote(CamSystem::CamWorks);
-            }
-            "PAINT" | "TLDATA" => self.cam.vote(CamSystem::SiemensNx),
-            "MODE" => self.cam.vote(CamSystem::Fusion),
-            _ => {}
+        if matches!(word.as_str(), "MOVE_ATTRIB" | "BOX") {
+            self.camworks_vocabulary = true;
         }
         let span = cx.rec.span;
         let args = match st.body {
@@ -1442,18 +1227,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         self.carry(cx, st, false);
     }
 
-    fn vote_comment(&mut self, text: &str) {
-        if text.contains("Pro/CLfile") {
-            self.cam.header(CamSystem::Creo);
-        } else if text.contains("CATIA") {
-            self.cam.header(CamSystem::CatiaV5);
-        } else if text.contains("postpro-examples") {
-            self.cam.header(CamSystem::PostproExamples);
-        }
-    }
-
-    fn finish(mut self) -> (ProgramInfo, Vec<Diagnostic>) {
+    fn finish(mut self) -> (ProgramInfo, Vec<Diagnostic>, SenseVotes) {
         self.finish_nurbs();
+        self.arc_arrival(None);
+        self.flush_cycle();
         if let Some(arc) = self.arc.take() {
             self.diag(
                 Diagnostic::new(
@@ -1508,31 +1285,16 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 word: None,
             });
         }
-        self.info.cam_system = self.cam.decide();
+        self.arc_info.sense = match self.sense {
+            SensePlan::Known(s, origin) => {
+                self.arc_info.origin = origin;
+                Some(s)
+            }
+            SensePlan::Survey | SensePlan::Unknown { .. } => None,
+        };
+        self.info.arc_sense = self.arc_info;
         self.diags.sort_by_key(|d| d.span.start);
-        (self.info, self.diags)
-    }
-}
-
-/// Evidence of the CAM system: an explicit header wins, otherwise the most frequent vocabulary.
-#[derive(Default)]
-struct CamEvidence {
-    header: Option<CamSystem>,
-    votes: [u32; CamSystem::ALL.len()],
-}
-
-impl CamEvidence {
-    fn header(&mut self, cam: CamSystem) {
-        self.header.get_or_insert(cam);
-    }
-
-    fn vote(&mut self, cam: CamSystem) {
-        self.votes[cam as usize] += 1;
-    }
-
-    fn decide(&self) -> Option<CamSystem> {
-        let (best, &n) = self.votes.iter().enumerate().max_by_key(|&(k, n)| (n, std::cmp::Reverse(k)))?;
-        self.header.or((n > 0).then(|| CamSystem::ALL[best]))
+        (self.info, self.diags, self.votes)
     }
 }
 
@@ -1640,56 +1402,51 @@ fn tool_path_names(st: &Statement<'_>) -> (String, Option<String>) {
     (op, tool)
 }
 
-/// The unit of a `UNITS` minor word.
-fn unit_word(w: &str) -> Option<LengthUnit> {
-    match w.to_ascii_uppercase().as_str() {
-        "MM" | "MILLIMETERS" | "MILLIMETRES" | "METRIC" => Some(LengthUnit::Mm),
-        "INCHES" | "INCH" | "IN" => Some(LengthUnit::Inch),
+/// The time base and length unit of a feed word.
+fn feed_word(w: &str) -> Option<(FeedPer, Option<LengthUnit>)> {
+    Some(match w.to_ascii_uppercase().as_str() {
+        "MMPM" => (FeedPer::Minute, Some(LengthUnit::Mm)),
+        "IPM" => (FeedPer::Minute, Some(LengthUnit::Inch)),
+        "MMPR" => (FeedPer::Revolution, Some(LengthUnit::Mm)),
+        "IPR" => (FeedPer::Revolution, Some(LengthUnit::Inch)),
+        "PERMIN" | "FPM" => (FeedPer::Minute, None),
+        "PERREV" | "FPR" => (FeedPer::Revolution, None),
+        _ => return None,
+    })
+}
+
+/// The operation a whole-line comment starts: CATIA `$$ OPERATION NAME : name`, Creo
+/// `$$-> FEATNO / n` (the NC sequence's feature number).
+fn comment_operation(text: &str) -> Option<String> {
+    let t = text.trim();
+    if let Some(rest) = strip_prefix_ignore_case(t, "OPERATION NAME")
+        && let Some(name) = rest.trim_start().strip_prefix(':')
+    {
+        return Some(name.trim().to_string());
+    }
+    creo_feature(t)
+}
+
+/// Creo's `-> FEATNO / n` (in a `$$` comment or a `REMARK`): the operation `FEATNO n`.
+fn creo_feature(text: &str) -> Option<String> {
+    let rest = text.trim().strip_prefix("->")?.trim_start();
+    let number = strip_prefix_ignore_case(rest, "FEATNO")?.trim_start().strip_prefix('/')?.trim();
+    (!number.is_empty()).then(|| format!("FEATNO {number}"))
+}
+
+/// The operation a text statement starts: Makino `PPRINT/BEGIN-SECTION,MACHINING`, Creo
+/// `REMARK -> FEATNO / n`.
+fn text_operation(kind: TextKind, text: &str) -> Option<String> {
+    match kind {
+        TextKind::Pprint => {
+            let rest = strip_prefix_ignore_case(text.trim(), "BEGIN-SECTION")?.trim_start().strip_prefix(',')?;
+            rest.trim().eq_ignore_ascii_case("MACHINING").then(|| rest.trim().to_string())
+        }
+        TextKind::Remark => creo_feature(text),
         _ => None,
     }
 }
 
-/// Finds the file's length unit before reading: the first `UNITS`/`UNIT` statement, else the
-/// unit word of the first `FEDRAT` that has one, else millimetres. Only lines that start with
-/// `U` or `F` are parsed, so this costs little more than a scan for line ends.
-fn prescan_units(src: &str) -> UnitsInfo {
-    let bytes = src.as_bytes();
-    let mut feed_hint = None;
-    let mut pos = 0;
-    while pos < bytes.len() {
-        let line_end = memchr::memchr2(b'\n', b'\r', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
-        let first = bytes[pos..line_end].iter().position(|&c| c != b' ' && c != b'\t').map(|k| pos + k);
-        if let Some(f) = first
-            && matches!(bytes[f], b'U' | b'u' | b'F' | b'f')
-            && let Some(RawUnit::Statement(rec)) = Splitter::at(src, pos).next()
-            && let mut buf = syntax::Args::new()
-            && let Ok(st) = syntax::statement(&rec.text, &mut buf)
-        {
-            let words = || match &st.body {
-                Body::Args(a) => a
-                    .iter()
-                    .filter_map(|a| if let Value::Word(w) = a.value { Some(w.to_ascii_uppercase()) } else { None })
-                    .collect(),
-                _ => Vec::new(),
-            };
-            match st.word {
-                Word::Units => {
-                    if let Some(unit) = first_word(&st).and_then(unit_word) {
-                        return UnitsInfo { unit, origin: UnitsOrigin::Declared(rec.span) };
-                    }
-                }
-                Word::Fedrat if feed_hint.is_none() => {
-                    let w = words();
-                    if w.iter().any(|w| w == "IPM" || w == "IPR") {
-                        feed_hint = Some(UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::FeedWord(rec.span) });
-                    } else if w.iter().any(|w| w == "MMPM" || w == "MMPR") {
-                        feed_hint = Some(UnitsInfo { unit: LengthUnit::Mm, origin: UnitsOrigin::FeedWord(rec.span) });
-                    }
-                }
-                _ => {}
-            }
-        }
-        pos = line_end + 1;
-    }
-    feed_hint.unwrap_or_default()
+fn strip_prefix_ignore_case<'a>(text: &'a str, prefix: &str) -> Option<&'a str> {
+    text.get(..prefix.len()).filter(|p| p.eq_ignore_ascii_case(prefix)).map(|_| &text[prefix.len()..])
 }

@@ -1,0 +1,219 @@
+//! The pre-scan: what the reader must know before the first statement, found in one quick pass
+//! over the physical lines.
+//!
+//! - The **length unit**: the first `UNITS`/`UNIT` statement; else the unit word of the first
+//!   `FEDRAT` that has one (NX writes no UNITS); else millimetres.
+//! - The **CAM system**, whose arc convention applies to every `CIRCLE` as it is read: a header
+//!   wins (`$$* Pro/CLfile` or `REMARK * PRO/CLFILE` for Creo, a comment naming CATIA,
+//!   `PPRINT/APTCL-SPEC,MAKINO…`, the example generator's comment); otherwise the vocabulary
+//!   votes, one vote per record: `TOOL PATH`, `PAINT` and NX listing lines for NX; `OPFEATSTART`, `MOVE_ATTRIB`, `BOX` for CAMWorks;
+//!   `CSYS`, `TRNTYP`, `CSI_SET_FLUTE_LENGTH` for SOLIDWORKS CAM; `MOVARC`, `MODE` for Fusion.
+//!   The most votes win; a tie goes to the system listed first in [`CamSystem::ALL`].
+//! - The number of arc records (`CIRCLE`, `MOVARC`): whether the arc sense matters at all.
+//!
+//! Only lines that start like one of these words are looked at. A line whose major word and
+//! text are on the line itself (no `$`) is classified from the line; a line holding a `$`
+//! (a continued record, possibly cut inside the major word) goes through the record splitter
+//! and the statement grammar, exactly as the reader will see it.
+
+use crate::model::{CamSystem, LengthUnit, UnitsInfo, UnitsOrigin};
+use crate::records::{Splitter, Unit as RawUnit, is_listing_line};
+use crate::span::Span;
+use crate::syntax::{self, Body, Statement, Value};
+use crate::words::Word;
+
+/// What the pre-scan found.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Prescan {
+    /// The file's length unit and what decided it.
+    pub(super) units: UnitsInfo,
+    /// The CAM system, when recognised.
+    pub(super) cam: Option<CamSystem>,
+    /// `CIRCLE` and `MOVARC` records.
+    pub(super) arc_records: usize,
+}
+
+/// Scans `src` once.
+pub(super) fn prescan(src: &str) -> Prescan {
+    let bytes = src.as_bytes();
+    let mut units: Option<UnitsInfo> = None;
+    let mut feed_hint: Option<UnitsInfo> = None;
+    let mut cam = CamEvidence::default();
+    let mut arc_records = 0;
+    let mut seen_statement = false;
+    let mut continued = false;
+    let mut pos = 0;
+    while pos < bytes.len() {
+        let line_end = memchr::memchr2(b'\n', b'\r', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
+        let line = &src[pos..line_end];
+        let start = pos;
+        pos = line_end + 1;
+        // A continuation line belongs to the record (or comment) before it.
+        let was_continued = std::mem::replace(&mut continued, ends_with_single_dollar(line));
+        let trimmed = line.trim_start_matches([' ', '\t']);
+        let Some(&first) = trimmed.as_bytes().first() else { continue };
+        if was_continued {
+            continue;
+        }
+        if trimmed.starts_with("$$") {
+            cam.comment(trimmed);
+            continue;
+        }
+        if is_listing_line(line, seen_statement) {
+            cam.vote(CamSystem::SiemensNx);
+            continue;
+        }
+        seen_statement = true;
+        let first = first.to_ascii_uppercase();
+        let wanted_units = units.is_none() && (first == b'U' || first == b'F' && feed_hint.is_none());
+        if !wanted_units && !matches!(first, b'B' | b'C' | b'M' | b'O' | b'P' | b'R' | b'T') {
+            continue;
+        }
+        let Some(seen) = classify(src, start, line) else { continue };
+        match seen.word {
+            Word::Units => {
+                if let Some(unit) = seen.unit {
+                    units.get_or_insert(UnitsInfo { unit, origin: UnitsOrigin::Declared(seen.span) });
+                }
+            }
+            Word::Fedrat if feed_hint.is_none() => {
+                feed_hint = seen.unit.map(|unit| UnitsInfo { unit, origin: UnitsOrigin::FeedWord(seen.span) });
+            }
+            Word::Circle => arc_records += 1,
+            Word::Movarc => arc_records += 1,
+            _ => {}
+        }
+        match seen.cam {
+            Some(Evidence::Header(c)) => cam.header(c),
+            Some(Evidence::Vote(c)) => cam.vote(c),
+            None => {}
+        }
+    }
+    Prescan { units: units.or(feed_hint).unwrap_or_default(), cam: cam.decide(), arc_records }
+}
+
+/// What one statement tells the pre-scan.
+struct Seen {
+    word: Word,
+    /// `UNITS`: the declared unit; `FEDRAT`: the unit of its feed word.
+    unit: Option<LengthUnit>,
+    /// Evidence of the CAM system.
+    cam: Option<Evidence>,
+    span: Span,
+}
+
+enum Evidence {
+    Header(CamSystem),
+    Vote(CamSystem),
+}
+
+/// The statement that starts on the physical line `line` (at `start` in `src`).
+fn classify(src: &str, start: usize, line: &str) -> Option<Seen> {
+    let units_word =
+        line.trim_start().as_bytes().first().is_some_and(|c| matches!(c.to_ascii_uppercase(), b'U' | b'F'));
+    // UNITS and FEDRAT go through the splitter for the exact span the summary reports.
+    if !line.contains('$') && !units_word {
+        // The whole record is on this line.
+        let mut buf = syntax::Args::new();
+        let st = syntax::statement(line, &mut buf).ok()?;
+        return Some(seen(&st, Span::new(start, start + line.len())));
+    }
+    // A continued record (or one with a trailing comment): as the reader will join it.
+    let Some(RawUnit::Statement(rec)) = Splitter::at(src, start).next() else { return None };
+    let mut buf = syntax::Args::new();
+    let st = syntax::statement(&rec.text, &mut buf).ok()?;
+    Some(seen(&st, rec.span))
+}
+
+fn seen(st: &Statement<'_>, span: Span) -> Seen {
+    let words = || st.args().iter().filter_map(|a| if let Value::Word(w) = a.value { Some(w) } else { None });
+    let text = if let Body::Text(t) = st.body { t } else { "" };
+    let unit = match st.word {
+        Word::Units => words().next().and_then(unit_word),
+        Word::Fedrat => words().find_map(feed_unit_word),
+        _ => None,
+    };
+    let is = |w: &str| st.major.trim().eq_ignore_ascii_case(w);
+    let cam = match st.word {
+        Word::Movarc => Some(Evidence::Vote(CamSystem::Fusion)),
+        Word::ToolPath => Some(Evidence::Vote(CamSystem::SiemensNx)),
+        Word::OpFeatStart => Some(Evidence::Vote(CamSystem::CamWorks)),
+        Word::Csys | Word::Trntyp => Some(Evidence::Vote(CamSystem::SolidworksCam)),
+        Word::Pprint if starts_with_ignore_case(text, "APTCL-SPEC,MAKINO") => {
+            Some(Evidence::Header(CamSystem::MakinoFfcam))
+        }
+        Word::Remark if contains_ignore_case(text, "PRO/CLFILE") => Some(Evidence::Header(CamSystem::Creo)),
+        Word::Passive if is("PAINT") => Some(Evidence::Vote(CamSystem::SiemensNx)),
+        Word::Passive if is("MOVE_ATTRIB") || is("BOX") => Some(Evidence::Vote(CamSystem::CamWorks)),
+        Word::Passive if is("CSI_SET_FLUTE_LENGTH") => Some(Evidence::Vote(CamSystem::SolidworksCam)),
+        Word::Passive if is("MODE") => Some(Evidence::Vote(CamSystem::Fusion)),
+        _ => None,
+    };
+    Seen { word: st.word, unit, cam, span }
+}
+
+fn feed_unit_word(w: &str) -> Option<LengthUnit> {
+    match w.to_ascii_uppercase().as_str() {
+        "IPM" | "IPR" => Some(LengthUnit::Inch),
+        "MMPM" | "MMPR" => Some(LengthUnit::Mm),
+        _ => None,
+    }
+}
+
+/// The unit of a `UNITS` minor word.
+pub(super) fn unit_word(w: &str) -> Option<LengthUnit> {
+    match w.to_ascii_uppercase().as_str() {
+        "MM" | "MILLIMETERS" | "MILLIMETRES" | "METRIC" => Some(LengthUnit::Mm),
+        "INCHES" | "INCH" | "IN" => Some(LengthUnit::Inch),
+        _ => None,
+    }
+}
+
+/// The line ends with a single `$` (not `$$`): the next line continues its record or comment.
+fn ends_with_single_dollar(line: &str) -> bool {
+    let t = line.trim_end_matches([' ', '\t']);
+    t.ends_with('$') && !t.ends_with("$$")
+}
+
+fn starts_with_ignore_case(text: &str, prefix: &str) -> bool {
+    text.get(..prefix.len()).is_some_and(|p| p.eq_ignore_ascii_case(prefix))
+}
+
+/// ASCII case-insensitive substring search (`needle` upper case).
+fn contains_ignore_case(hay: &str, needle: &str) -> bool {
+    let (h, n) = (hay.as_bytes(), needle.as_bytes());
+    n.is_empty() || h.windows(n.len()).any(|w| w.eq_ignore_ascii_case(n))
+}
+
+/// Evidence of the CAM system: an explicit header wins, otherwise the most frequent vocabulary.
+#[derive(Default)]
+struct CamEvidence {
+    header: Option<CamSystem>,
+    votes: [u32; CamSystem::ALL.len()],
+}
+
+impl CamEvidence {
+    fn header(&mut self, cam: CamSystem) {
+        self.header.get_or_insert(cam);
+    }
+
+    fn vote(&mut self, cam: CamSystem) {
+        self.votes[cam as usize] += 1;
+    }
+
+    /// A whole-line comment: the headers of Creo, CATIA and the example generator.
+    fn comment(&mut self, text: &str) {
+        if contains_ignore_case(text, "PRO/CLFILE") {
+            self.header(CamSystem::Creo);
+        } else if contains_ignore_case(text, "CATIA") {
+            self.header(CamSystem::CatiaV5);
+        } else if contains_ignore_case(text, "POSTPRO-EXAMPLES") {
+            self.header(CamSystem::PostproExamples);
+        }
+    }
+
+    fn decide(&self) -> Option<CamSystem> {
+        let (best, &n) = self.votes.iter().enumerate().max_by_key(|&(k, n)| (n, std::cmp::Reverse(k)))?;
+        self.header.or((n > 0).then(|| CamSystem::ALL[best]))
+    }
+}
