@@ -76,7 +76,9 @@ fn piece(blocks: &Blocks, machine: &Machine, i: usize, delta: &[f64], nominal: f
     if rapid && velocity_limit != Limit::CycleTime {
         velocity_limit = Limit::Rapid;
     }
-    if velocity >= 1.0 {
+    // At the programmed feed the share is 1 exactly: (1 / T) · T may round below it, and a cap
+    // one ulp under the next block's makes the interpolator brake for nothing.
+    if velocity >= 1.0 || limits.limiter == Limiter::Programmed {
         velocity = 1.0;
     }
     let mut acceleration = limits.acceleration.0 * nominal;

@@ -75,6 +75,12 @@ pub struct Blocks {
     pub run_break: Vec<bool>,
     /// Where an assumption was made (a feed per revolution without a spindle speed, no feed).
     pub notes: Vec<Note>,
+    /// The operation of each block (index into [`Self::operations`]).
+    pub operation: Vec<u32>,
+    /// The names of the CL file's operations that have blocks, in order (`OperationStart`
+    /// items: NX `TOOL PATH/`, CAMWorks `OPFEATSTART`, …); an empty name for the blocks before
+    /// the first one, or of an operation without a name.
+    pub operations: Vec<String>,
 }
 
 impl Blocks {
@@ -131,7 +137,7 @@ pub fn blocks(path: &ToolPath, solved: &Solved, machine: &Machine, timing: Timin
     let mut out = Blocks { axes: machine.axes.len(), ..Blocks::default() };
     let Some(first) = solved.steps.first() else { return out };
     out.push_position(first.joints.as_slice(), &first.pose);
-    let mut state = State { stop: true, run_break: true, dwell: 0.0, rpm: None, feed: None };
+    let mut state = State { stop: true, run_break: true, dwell: 0.0, rpm: None, feed: None, operation: None };
     let mut k = 1; // next step; the first one is where the machine starts
     for item in &path.items {
         let motion = match &item.kind {
@@ -162,6 +168,8 @@ struct State {
     dwell: f64,
     rpm: Option<f64>,
     feed: Option<f64>,
+    /// An operation started since the last block: the next block opens it.
+    operation: Option<String>,
 }
 
 impl State {
@@ -170,6 +178,7 @@ impl State {
             self.run_break = true;
         }
         match kind {
+            ItemKind::OperationStart(name) => self.operation = Some(name.clone()),
             ItemKind::ToolChange(_) | ItemKind::Stop(_) | ItemKind::OptionalStop | ItemKind::End => self.stop = true,
             ItemKind::Spindle(s) => {
                 self.stop = true;
@@ -271,5 +280,12 @@ fn push_block(
     out.nominal.push(nominal);
     out.kind.push(kind);
     out.step.push(k);
+    // The one place blocks get their operation: an operation opens with its first block.
+    if let Some(name) = state.operation.take() {
+        out.operations.push(name);
+    } else if out.operations.is_empty() {
+        out.operations.push(String::new());
+    }
+    out.operation.push((out.operations.len() - 1) as u32);
     out.push_position(b, &step.pose);
 }
