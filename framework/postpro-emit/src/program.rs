@@ -425,27 +425,24 @@ pub fn header(path: &ToolPath, solved: &Solved, machine: &Machine, dialect: &Dia
         linearized_points: solved.inserted,
         tolerance: machine.policy.linearization_tolerance,
         decisions: solved.decisions.len(),
-        prediction: options
-            .prediction
-            .as_ref()
-            .map(|p| Prediction {
-                planner: clean_comment(dialect, &p.planner),
-                operations: p
-                    .operations
-                    .iter()
-                    .map(|o| OperationPrediction {
-                        name: clean_comment(dialect, &o.name),
-                        cause: clean_comment(dialect, &o.cause),
-                        ..o.clone()
-                    })
-                    .collect(),
-                worst: p
-                    .worst
-                    .iter()
-                    .map(|m| MarkedSlowdown { text: clean_comment(dialect, &m.text), ..m.clone() })
-                    .collect(),
-                ..p.clone()
-            }),
+        prediction: options.prediction.as_ref().map(|p| Prediction {
+            planner: clean_comment(dialect, &p.planner),
+            operations: p
+                .operations
+                .iter()
+                .map(|o| OperationPrediction {
+                    name: clean_comment(dialect, &o.name),
+                    cause: clean_comment(dialect, &o.cause),
+                    ..o.clone()
+                })
+                .collect(),
+            worst: p
+                .worst
+                .iter()
+                .map(|m| MarkedSlowdown { text: clean_comment(dialect, &m.text), ..m.clone() })
+                .collect(),
+            ..p.clone()
+        }),
     }
 }
 

@@ -85,8 +85,7 @@ pub fn predict(blocks: &Blocks, kin: &dyn Kinematics, options: &Options) -> Pred
     };
     let period = options.period.unwrap_or(machine.cnc.cycle_time);
     let keep = options.samples.then_some(kin);
-    let mut collector =
-        report::Collector::new(blocks, &track, &owner, keep, curves.as_ref(), options.threshold);
+    let mut collector = report::Collector::new(blocks, &track, &owner, keep, curves.as_ref(), options.threshold);
     let cycle_time = plan::run(&track, period, &mut collector);
     collector.finish();
     let operations = collector.operations();

@@ -75,6 +75,9 @@ pub struct Blocks {
     pub run_break: Vec<bool>,
     /// Where an assumption was made (a feed per revolution without a spindle speed, no feed).
     pub notes: Vec<Note>,
+    /// True for a feed block that moves the tip along the tool axis (within 1°): a plunge, or a
+    /// retract at feed.
+    pub along_axis: Vec<bool>,
     /// The operation of each block (index into [`Self::operations`]).
     pub operation: Vec<u32>,
     /// The names of the CL file's operations that have blocks, in order (`OperationStart`
@@ -117,6 +120,17 @@ impl Blocks {
     /// The tip feed the nominal duration stands for (mm/s): `L / nominal`.
     pub fn nominal_tip_feed(&self, i: usize) -> f64 {
         if self.nominal[i] > 0.0 { self.length[i] / self.nominal[i] } else { 0.0 }
+    }
+
+    /// What caps the junction from block `previous` into block `i`: `Plunge` where either moves
+    /// the tip along the tool axis (a plunge, a retract at feed: the program asks the tool to
+    /// turn there), else `Corner`.
+    pub fn junction_limit(&self, previous: Option<usize>, i: usize) -> crate::plan::Limit {
+        if self.along_axis[i] || previous.is_some_and(|p| self.along_axis[p]) {
+            crate::plan::Limit::Plunge
+        } else {
+            crate::plan::Limit::Corner
+        }
     }
 
     /// The programmed pose before block `i` (after block `i - 1`).
@@ -275,6 +289,9 @@ fn push_block(
     state.run_break = false;
     state.stop = false;
     state.dwell = 0.0;
+    let direction = step.pose.tip - from.pose.tip;
+    let cos = if length > 1e-9 { (direction / length).dot(&step.pose.axis).abs() } else { 0.0 };
+    out.along_axis.push(kind == BlockKind::Feed && cos >= 1f64.to_radians().cos());
     out.length.push(length);
     out.feed.push(feed);
     out.nominal.push(nominal);

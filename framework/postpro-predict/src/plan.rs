@@ -45,6 +45,9 @@ pub enum Limit {
     /// The block runs at its programmed F, but F is the feed of the linear axes (G1 without
     /// TCP): the tool tip moves slower than the CL file's feed.
     AxisFeed,
+    /// Where a move along the tool axis (a plunge, a retract at feed) meets the path: the program
+    /// asks the tool to turn there, as at an exact stop.
+    Plunge,
 }
 
 /// A piece of the track: constant caps on the parameter's derivatives, and why each holds.
@@ -154,13 +157,13 @@ impl TrackBuilder {
     }
 
     /// Adds `piece` for `block`; the junction before it is an exact stop when one is pending,
-    /// else a corner capped at `corner`.
-    pub fn push(&mut self, piece: Piece, block: usize, corner: f64) {
+    /// else capped at `corner` for the reason `why` (a corner, a plunge).
+    pub fn push(&mut self, piece: Piece, block: usize, corner: f64, why: Limit) {
         if let Some(last) = self.junctions.last_mut() {
             *last = if self.stop_pending {
                 Junction { cap: 0.0, limit: Limit::Stop, dwell: self.dwell_pending }
             } else {
-                Junction { cap: corner, limit: Limit::Corner, dwell: 0.0 }
+                Junction { cap: corner, limit: why, dwell: 0.0 }
             };
         } else {
             self.dwell_at_start = self.dwell_pending;
@@ -233,7 +236,17 @@ pub fn run(track: &Track, h: f64, observer: &mut dyn Observer) -> f64 {
         caps.push(if i + 1 == n { (0.0, Limit::Stop) } else { track.junction_cap(i) });
     }
     let mut s = Stepper { track, ends, caps, h, t: track.dwell_at_start, u: 0.0, v: 0.0, a: 0.0, k: 0, cruise: None };
-    observer.sample(&Sample { t: s.t, u: 0.0, v: 0.0, a: 0.0, j: 0.0, piece: 0, limit: Limit::Stop, bound: Limit::Stop, ahead: true });
+    observer.sample(&Sample {
+        t: s.t,
+        u: 0.0,
+        v: 0.0,
+        a: 0.0,
+        j: 0.0,
+        piece: 0,
+        limit: Limit::Stop,
+        bound: Limit::Stop,
+        ahead: true,
+    });
     s.go(observer);
     // A dwell after the last piece is spent at its end.
     s.t + track.junctions[n - 1].dwell
@@ -284,8 +297,17 @@ impl Stepper<'_> {
                 self.a = 0.0;
                 observer.crossing(self.k, self.t, 0.0, Limit::Stop);
                 let stop = Limit::Stop;
-                let at_rest =
-                    Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit: stop, bound: stop, ahead: true };
+                let at_rest = Sample {
+                    t: self.t,
+                    u: self.u,
+                    v: 0.0,
+                    a: 0.0,
+                    j,
+                    piece: self.k,
+                    limit: stop,
+                    bound: stop,
+                    ahead: true,
+                };
                 observer.sample(&at_rest);
                 self.k += 1;
                 if self.k == n {
@@ -353,7 +375,17 @@ impl Stepper<'_> {
                 if rest > 10.0 * piece.jerk * self.h.powi(3) && guard <= 200_000_000 {
                     // Stopped short of a look-ahead window's end: start again from rest.
                     self.u = u_rest;
-                    observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit, bound: limit, ahead });
+                    observer.sample(&Sample {
+                        t: self.t,
+                        u: self.u,
+                        v: 0.0,
+                        a: 0.0,
+                        j,
+                        piece: self.k,
+                        limit,
+                        bound: limit,
+                        ahead,
+                    });
                     continue;
                 }
                 // Braking ended a hair before the junction (the period's rounding): cover the
@@ -362,7 +394,17 @@ impl Stepper<'_> {
                 self.u = at;
                 let why = if self.caps[self.k].0 <= 0.0 { Limit::Stop } else { Limit::LookAhead };
                 observer.crossing(self.k, self.t, 0.0, why);
-                observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit, bound: limit, ahead });
+                observer.sample(&Sample {
+                    t: self.t,
+                    u: self.u,
+                    v: 0.0,
+                    a: 0.0,
+                    j,
+                    piece: self.k,
+                    limit,
+                    bound: limit,
+                    ahead,
+                });
                 self.k += 1;
                 if self.k == n || self.u >= end {
                     return;
@@ -402,7 +444,8 @@ impl Stepper<'_> {
             } else {
                 limit
             };
-            let sample = Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: piece_now, limit: shown, bound: limit, ahead };
+            let sample =
+                Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: piece_now, limit: shown, bound: limit, ahead };
             observer.sample(&sample);
         }
     }

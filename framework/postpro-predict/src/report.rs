@@ -14,7 +14,9 @@
 //! accelerate out of a dip go to what caused the dip (the jerk that limits the acceleration only
 //! says how fast the machine recovers). The steps that accelerate out of or brake into an exact
 //! stop the program asks for (a rapid, a tool change, a stop, a dwell, the program's ends) are
-//! `exact stop`: no programmer can remove them, and a [`Mark`] does not count them.
+//! `exact stop`, those around the turn at the end of a plunge or the start of a retract at feed
+//! (a move along the tool axis) `plunge or retract`: no programmer can remove them by changing
+//! the path, and a [`Mark`] does not count them.
 
 use std::collections::BTreeMap;
 
@@ -46,12 +48,14 @@ pub struct BlockResult {
     /// Time lost (s): the predicted time, a dwell before the block aside, minus the time at the
     /// programmed feed; 0 for rapids and reorientations (see the module's documentation).
     pub lost: f64,
-    /// The part of [`Self::lost`] spent accelerating out of or braking into an exact stop.
+    /// The part of [`Self::lost`] spent accelerating out of or braking into an exact stop, a
+    /// plunge or a retract (what the program itself asks to stop or turn at).
     pub stop_lost: f64,
-    /// What lost the most time on the block apart from exact stops (`Programmed` when nothing).
+    /// What lost the most time on the block apart from those (`Programmed` when nothing).
     pub cause: Limit,
     /// The lowest predicted tip feed apart from the acceleration out of and the braking into
-    /// exact stops (mm/min; the programmed feed when the block is at it everywhere else).
+    /// exact stops, plunges and retracts (mm/min; the programmed feed when the block is at it
+    /// everywhere else).
     pub min_feed_between_stops: f64,
 }
 
@@ -360,6 +364,7 @@ pub fn describe(limit: Limit, machine: &Machine) -> String {
         Limit::Stop => "exact stop".into(),
         Limit::Rapid => "rapid".into(),
         Limit::AxisFeed => "G1 feed on the axes".into(),
+        Limit::Plunge => "plunge or retract".into(),
     }
 }
 
@@ -403,6 +408,12 @@ pub(crate) struct Collector<'a> {
     split: Split,
     /// Per operation, the time lost by cause.
     causes: Vec<BTreeMap<Limit, (f64, usize)>>,
+}
+
+/// True for what the program itself asks the motion to stop or turn at: an exact stop, a plunge
+/// or a retract. A mark does not count the time lost to it.
+fn asked_for(cause: Limit) -> bool {
+    matches!(cause, Limit::Stop | Limit::Plunge)
 }
 
 /// Less than this (s) is no block's main cause: the rounding of the steps.
@@ -594,7 +605,7 @@ impl<'a> Collector<'a> {
         }
         self.split.parts = parts;
         self.split.parts.clear();
-        if cause != Limit::Stop {
+        if !asked_for(cause) {
             for &(block, v) in &self.split.speeds {
                 let low = &mut self.min_speed_between_stops[block];
                 *low = low.min(v);
@@ -628,10 +639,10 @@ impl<'a> Collector<'a> {
                 shares.push((Limit::AxisFeed, g1));
             }
             let result = &mut self.results[block];
-            result.stop_lost = shares.iter().filter(|(l, _)| *l == Limit::Stop).map(|(_, s)| s).sum();
+            result.stop_lost = shares.iter().filter(|(l, _)| asked_for(*l)).map(|(_, s)| s).sum();
             result.cause = shares
                 .iter()
-                .filter(|(l, s)| *l != Limit::Stop && *s > MAIN_CAUSE_FLOOR)
+                .filter(|(l, s)| !asked_for(*l) && *s > MAIN_CAUSE_FLOOR)
                 .max_by(|a, b| a.1.total_cmp(&b.1))
                 .map_or(Limit::Programmed, |(l, _)| *l);
             let causes = &mut self.causes[self.blocks.operation[block] as usize];

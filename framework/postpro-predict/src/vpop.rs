@@ -190,7 +190,7 @@ impl<'a> Builder<'a> {
             // After a curve: the tip's direction changes within the tolerance's rounding.
             _ => f64::INFINITY,
         };
-        self.track.push(piece, i, corner);
+        self.track.push(piece, i, corner, blocks.junction_limit(self.track.last_block(), i));
         self.last_line = Some((i, length));
     }
 
@@ -223,6 +223,7 @@ impl<'a> Builder<'a> {
         }
         let params = bspline::chord_params(&poses);
         let which = curves.splines.len();
+        let why = blocks.junction_limit(self.track.last_block(), start);
         let mut corner = match self.last_line {
             Some((previous, _)) if self.track.last_block() == Some(previous) => {
                 let tangent = poses.get(1).map_or(nalgebra::Vector3::zeros(), |p| p.tip - poses[0].tip);
@@ -254,7 +255,7 @@ impl<'a> Builder<'a> {
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
                 let piece = self.curve_piece(&spline, kin, from, to, feed);
-                self.track.push(piece, block, corner);
+                self.track.push(piece, block, corner, why);
                 curves.segments.resize(self.track.len() - 1, Segment::Line);
                 curves.segments.push(Segment::Curve { spline: which, from });
                 corner = f64::INFINITY;

@@ -449,7 +449,8 @@ fn draw_landmarks(chart: &mut Chart<'_, '_>, report: &Report) -> Result<(), Plot
     let name_style = (FONT, 13).into_font().color(&OPERATION).pos(Pos::new(HPos::Left, VPos::Top));
     let top = y.end - (y.end - y.start) * 0.01;
     for (at, name) in report.operations.iter().filter(|(v, _)| inside(*v)) {
-        area.draw(&PathElement::new(vec![(*at, y.start), (*at, y.end)], OPERATION.stroke_width(1))).map_err(draw_error)?;
+        area.draw(&PathElement::new(vec![(*at, y.start), (*at, y.end)], OPERATION.stroke_width(1)))
+            .map_err(draw_error)?;
         let label: String = name.chars().take(LEGEND_CHARS).collect();
         area.draw(&Text::new(format!(" {label}"), (*at, top), name_style.clone())).map_err(draw_error)?;
     }

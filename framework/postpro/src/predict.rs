@@ -709,11 +709,8 @@ fn plot_report(run: &Run<'_>) -> plot::Report {
             rapids.push(feed_start[i]);
         }
     }
-    let operations = prediction
-        .operations
-        .iter()
-        .map(|o| (feed_start[o.first], operation_name(&o.name).to_string()))
-        .collect();
+    let operations =
+        prediction.operations.iter().map(|o| (feed_start[o.first], operation_name(&o.name).to_string())).collect();
     // The worst marks at their lowest feed.
     let marked = worst(marks, 10)
         .into_iter()
