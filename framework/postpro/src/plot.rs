@@ -448,7 +448,10 @@ fn draw_landmarks(chart: &mut Chart<'_, '_>, report: &Report) -> Result<(), Plot
     }
     let name_style = (FONT, 13).into_font().color(&OPERATION).pos(Pos::new(HPos::Left, VPos::Top));
     let top = y.end - (y.end - y.start) * 0.01;
-    for (at, name) in report.operations.iter().filter(|(v, _)| inside(*v)) {
+    // An operation that starts before the first sample drawn (with a rapid) is named where the
+    // path starts.
+    for (at, name) in report.operations.iter().map(|(v, n)| (v.max(x.start), n)).filter(|(v, _)| inside(*v)) {
+        let at = &at;
         area.draw(&PathElement::new(vec![(*at, y.start), (*at, y.end)], OPERATION.stroke_width(1)))
             .map_err(draw_error)?;
         let label: String = name.chars().take(LEGEND_CHARS).collect();
