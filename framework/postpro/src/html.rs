@@ -16,7 +16,7 @@ pub(crate) struct Report {
     pub(crate) setup: String,
     /// The totals: (label, value with its unit).
     pub(crate) totals: Vec<(String, String)>,
-    /// The time lost by cause: (cause, seconds, blocks).
+    /// The time lost by cause: (cause, seconds, blocks); a total row adds them up.
     pub(crate) causes: Vec<(String, f64, usize)>,
     /// One row per operation, in program order.
     pub(crate) operations: Vec<OperationRow>,
@@ -136,7 +136,9 @@ pub(crate) fn report(r: &Report) -> String {
             escape(cause)
         );
     }
-    out.push_str("</tbody>\n</table>\n</section>\n");
+    let total: f64 = r.causes.iter().map(|c| c.1).sum();
+    let _ = writeln!(out, "</tbody>\n<tfoot><tr><th>total</th><th class=\"n\">{total:.2}</th><th></th></tr></tfoot>");
+    out.push_str("</table>\n</section>\n");
 
     out.push_str(
         "<section id=\"marks\">\n<h2>Slowdowns marked, the worst first</h2>\n<p>Each is a comment \

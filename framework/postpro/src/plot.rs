@@ -451,18 +451,25 @@ fn draw_landmarks(chart: &mut Chart<'_, '_>, report: &Report) -> Result<(), Plot
     // An operation that starts before the first sample drawn (with a rapid) is named where the
     // path starts.
     for (at, name) in report.operations.iter().map(|(v, n)| (v.max(x.start), n)).filter(|(v, _)| inside(*v)) {
-        let at = &at;
-        area.draw(&PathElement::new(vec![(*at, y.start), (*at, y.end)], OPERATION.stroke_width(1)))
+        area.draw(&PathElement::new(vec![(at, y.start), (at, y.end)], OPERATION.stroke_width(1)))
             .map_err(draw_error)?;
         let label: String = name.chars().take(LEGEND_CHARS).collect();
-        area.draw(&Text::new(format!(" {label}"), (*at, top), name_style.clone())).map_err(draw_error)?;
+        area.draw(&Text::new(format!(" {label}"), (at, top), name_style.clone())).map_err(draw_error)?;
     }
+    // Each number on a white tag just above its circle, so the lines under it do not blur it.
     let number_style =
-        (FONT, 13).into_font().style(FontStyle::Bold).color(&MARK).pos(Pos::new(HPos::Center, VPos::Bottom));
-    let lift = (y.end - y.start) * 0.03;
+        (FONT, 14).into_font().style(FontStyle::Bold).color(&MARK).pos(Pos::new(HPos::Center, VPos::Center));
+    let (width, height) = area.dim_in_pixel();
+    let per_pixel = ((x.end - x.start) / f64::from(width.max(1)), (y.end - y.start) / f64::from(height.max(1)));
     for &(at, feed, number) in report.marks.iter().filter(|(v, f, _)| inside(*v) && f.is_finite()) {
+        let label = format!("#{number}");
+        let (half_width, half_height) = ((label.len() as f64 * 4.5 + 3.0) * per_pixel.0, 9.0 * per_pixel.1);
+        let centre = (at, feed + 4.0 * per_pixel.1 + 2.0 * half_height);
+        let tag = [(centre.0 - half_width, centre.1 - half_height), (centre.0 + half_width, centre.1 + half_height)];
+        area.draw(&Rectangle::new(tag, WHITE.mix(0.85).filled())).map_err(draw_error)?;
+        area.draw(&Rectangle::new(tag, MARK.stroke_width(1))).map_err(draw_error)?;
         area.draw(&Circle::new((at, feed), 4, MARK.stroke_width(2))).map_err(draw_error)?;
-        area.draw(&Text::new(format!("#{number}"), (at, feed + lift), number_style.clone())).map_err(draw_error)?;
+        area.draw(&Text::new(label, centre, number_style.clone())).map_err(draw_error)?;
     }
     Ok(())
 }

@@ -390,10 +390,15 @@ fn kind_name(kind: BlockKind) -> &'static str {
     }
 }
 
-/// The time lost by cause as table rows (cause, seconds, blocks: those it is the main cause of;
-/// those under 5 ms that are no block's main cause left out), then their total.
+/// The causes worth a row: those under 5 ms that are no block's main cause are left out.
+fn shown_causes(causes: &[Cause]) -> impl Iterator<Item = &Cause> {
+    causes.iter().filter(|c| c.blocks > 0 || c.seconds.abs() >= 0.005)
+}
+
+/// The time lost by cause as table rows (cause, seconds, blocks: those it is the main cause of),
+/// then their total.
 fn cause_rows(out: &mut String, causes: &[Cause], machine: &Machine) {
-    for c in causes.iter().filter(|c| c.blocks > 0 || c.seconds.abs() >= 0.005) {
+    for c in shown_causes(causes) {
         let _ = writeln!(out, "  {:<24} {:>9.2} s  {:>8} blocks", describe(c.limit, machine), c.seconds, c.blocks);
     }
     let _ = writeln!(out, "  {:<24} {:>9.2} s", "total", causes.iter().map(|c| c.seconds).sum::<f64>());
@@ -471,8 +476,8 @@ fn table(run: &Run<'_>) -> String {
         let worst = worst(marks, 10);
         let _ = writeln!(
             out,
-            "\n{} slowdowns marked (below {threshold}% of F and {} s lost, exact stops aside; at most {} per \
-             operation); the worst {}:",
+            "\n{} slowdowns marked (below {threshold}% of F and {} s lost, exact stops, plunges and retracts aside; \
+             at most {} per operation); the worst {}:",
             marks.len(),
             rules.min_loss,
             rules.max_per_operation,
@@ -772,7 +777,7 @@ fn html_report(run: &Run<'_>, svg: &str) -> html::Report {
         title: format!("{} on {}", job.source.name(), machine.name),
         setup: format!(
             "{} planner, {} mode, {} blocks; a slowdown is marked below {}% of F with at least {} s lost, exact \
-             stops aside, at most {} per operation",
+             stops, plunges and retracts aside, at most {} per operation",
             planner_name(planner),
             args.mode.mode().name(),
             prediction.blocks.len(),
@@ -790,7 +795,7 @@ fn html_report(run: &Run<'_>, svg: &str) -> html::Report {
             ),
             ("slowdowns marked".into(), marks.len().to_string()),
         ],
-        causes: prediction.causes().iter().map(|c| (describe(c.limit, machine), c.seconds, c.blocks)).collect(),
+        causes: shown_causes(&prediction.causes()).map(|c| (describe(c.limit, machine), c.seconds, c.blocks)).collect(),
         operations: prediction
             .operations
             .iter()
