@@ -12,8 +12,8 @@ use std::collections::HashMap;
 use postpro_cl::{Source, ToolPath, read};
 use postpro_emit::bspline::{DEGREE, Spline};
 use postpro_emit::{
-    Annotation, Dialect, MarkedSlowdown, Mode, OperationPrediction, Options, Prediction, build, builtin_template, dialect,
-    render,
+    Annotation, Dialect, MarkedSlowdown, Mode, OperationPrediction, Options, Prediction, build, builtin_template,
+    dialect, render,
 };
 use postpro_kin::{Joints, Kinematics, Solved, Step, StepKind, linearize, solve, solver_for};
 use postpro_machine::Registry;

@@ -548,7 +548,11 @@ impl Element {
                 Node::Element(e) => out.push_str(&e.text()),
             }
         }
-        out.replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", "\"").replace("&#39;", "'").replace("&amp;", "&")
+        out.replace("&lt;", "<")
+            .replace("&gt;", ">")
+            .replace("&quot;", "\"")
+            .replace("&#39;", "'")
+            .replace("&amp;", "&")
     }
 }
 
@@ -874,7 +878,8 @@ fn known_limit(limit: &str) -> bool {
     axis("velocity")
         || axis("acceleration")
         || axis("jerk")
-        || ["corner", "look-ahead", "cycle time", "path acceleration", "path jerk", "G1 feed on the axes"].contains(&limit)
+        || ["corner", "look-ahead", "cycle time", "path acceleration", "path jerk", "G1 feed on the axes"]
+            .contains(&limit)
 }
 
 /// The main job on the example with `extra` options, written to `name`; its stderr.
