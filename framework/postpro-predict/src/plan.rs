@@ -211,6 +211,13 @@ pub struct Sample {
     pub ahead: bool,
 }
 
+impl Sample {
+    /// A sample at rest, held by `limit` (`bound` alike).
+    fn at_rest(t: f64, u: f64, j: f64, piece: usize, limit: Limit, ahead: bool) -> Sample {
+        Sample { t, u, v: 0.0, a: 0.0, j, piece, limit, bound: limit, ahead }
+    }
+}
+
 /// What the stepper reports.
 pub trait Observer {
     /// A sample, every period (and at the very end).
@@ -236,17 +243,7 @@ pub fn run(track: &Track, h: f64, observer: &mut dyn Observer) -> f64 {
         caps.push(if i + 1 == n { (0.0, Limit::Stop) } else { track.junction_cap(i) });
     }
     let mut s = Stepper { track, ends, caps, h, t: track.dwell_at_start, u: 0.0, v: 0.0, a: 0.0, k: 0, cruise: None };
-    observer.sample(&Sample {
-        t: s.t,
-        u: 0.0,
-        v: 0.0,
-        a: 0.0,
-        j: 0.0,
-        piece: 0,
-        limit: Limit::Stop,
-        bound: Limit::Stop,
-        ahead: true,
-    });
+    observer.sample(&Sample::at_rest(s.t, 0.0, 0.0, 0, Limit::Stop, true));
     s.go(observer);
     // A dwell after the last piece is spent at its end.
     s.t + track.junctions[n - 1].dwell
@@ -296,19 +293,7 @@ impl Stepper<'_> {
                 self.v = 0.0;
                 self.a = 0.0;
                 observer.crossing(self.k, self.t, 0.0, Limit::Stop);
-                let stop = Limit::Stop;
-                let at_rest = Sample {
-                    t: self.t,
-                    u: self.u,
-                    v: 0.0,
-                    a: 0.0,
-                    j,
-                    piece: self.k,
-                    limit: stop,
-                    bound: stop,
-                    ahead: true,
-                };
-                observer.sample(&at_rest);
+                observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, Limit::Stop, true));
                 self.k += 1;
                 if self.k == n {
                     return;
@@ -344,17 +329,7 @@ impl Stepper<'_> {
                 self.k += 1;
             }
             if crossed_stop {
-                observer.sample(&Sample {
-                    t: self.t,
-                    u: self.u,
-                    v: 0.0,
-                    a: 0.0,
-                    j,
-                    piece: self.k - 1,
-                    limit: Limit::Stop,
-                    bound: Limit::Stop,
-                    ahead: true,
-                });
+                observer.sample(&Sample::at_rest(self.t, self.u, j, self.k - 1, Limit::Stop, true));
                 if self.k == n {
                     return;
                 }
@@ -375,17 +350,7 @@ impl Stepper<'_> {
                 if rest > 10.0 * piece.jerk * self.h.powi(3) && guard <= 200_000_000 {
                     // Stopped short of a look-ahead window's end: start again from rest.
                     self.u = u_rest;
-                    observer.sample(&Sample {
-                        t: self.t,
-                        u: self.u,
-                        v: 0.0,
-                        a: 0.0,
-                        j,
-                        piece: self.k,
-                        limit,
-                        bound: limit,
-                        ahead,
-                    });
+                    observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
                     continue;
                 }
                 // Braking ended a hair before the junction (the period's rounding): cover the
@@ -394,17 +359,7 @@ impl Stepper<'_> {
                 self.u = at;
                 let why = if self.caps[self.k].0 <= 0.0 { Limit::Stop } else { Limit::LookAhead };
                 observer.crossing(self.k, self.t, 0.0, why);
-                observer.sample(&Sample {
-                    t: self.t,
-                    u: self.u,
-                    v: 0.0,
-                    a: 0.0,
-                    j,
-                    piece: self.k,
-                    limit,
-                    bound: limit,
-                    ahead,
-                });
+                observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
                 self.k += 1;
                 if self.k == n || self.u >= end {
                     return;
