@@ -96,6 +96,14 @@ pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -
     (track, owner, curves)
 }
 
+/// The tip speed block `i` asks for: its feed, or less in G1 timing (F on the axes). The feed
+/// itself where the two differ by rounding only (`L / (L / F)`): a cap one ulp under the next
+/// block's makes the interpolator brake for nothing.
+fn programmed_tip_feed(blocks: &Blocks, i: usize) -> f64 {
+    let (nominal, feed) = (blocks.nominal_tip_feed(i), blocks.feed[i]);
+    if (nominal - feed).abs() <= 1e-9 * feed { feed } else { nominal.max(1e-9) }
+}
+
 struct Builder<'a> {
     blocks: &'a Blocks,
     machine: &'a Machine,
@@ -129,7 +137,7 @@ impl<'a> Builder<'a> {
         let mut piece = Piece {
             length,
             // The tip speed the program asks for: the feed, or less in G1 timing (F on the axes).
-            velocity: if kind == BlockKind::Rapid { f64::INFINITY } else { blocks.nominal_tip_feed(i).max(1e-9) },
+            velocity: if kind == BlockKind::Rapid { f64::INFINITY } else { programmed_tip_feed(blocks, i) },
             acceleration: f64::INFINITY,
             jerk: f64::INFINITY,
             velocity_limit: if kind == BlockKind::Rapid { Limit::Rapid } else { Limit::Programmed },
