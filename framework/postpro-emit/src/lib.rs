@@ -25,8 +25,8 @@ mod render;
 pub use dialect::{DIALECTS, Dialect, TcpStyle, dialect};
 pub use format::{number, push_number};
 pub use program::{
-    Annotation, AxisInfo, Block, BlockSink, Header, Mode, Options, Prediction, Program, Tool, Word, build,
-    build_blocks, check_mode, clean_comment, header, motion_options, tools,
+    Annotation, AxisInfo, Block, BlockSink, Header, MarkedSlowdown, Mode, OperationPrediction, Options, Prediction,
+    Program, Tool, Word, build, build_blocks, check_mode, clean_comment, header, motion_options, tools,
 };
 pub use render::{TEMPLATES, builtin_template, render, write_program};
 

@@ -112,6 +112,42 @@ pub struct Prediction {
     pub planner: String,
     /// The number of slowdown comments written into the program (annotations).
     pub slowdowns: usize,
+    /// Each operation of the CL file, in order.
+    pub operations: Vec<OperationPrediction>,
+    /// The worst slowdowns marked (the prediction gives at most five), the worst first.
+    pub worst: Vec<MarkedSlowdown>,
+}
+
+/// The prediction of one operation of the CL file, for the header.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct OperationPrediction {
+    /// Its name in the CL file; empty for the motion before the first operation or an operation
+    /// without a name. In the header it is cleaned like comment text.
+    pub name: String,
+    /// Predicted time (s).
+    pub cycle_time: f64,
+    /// Time at the programmed feed (s).
+    pub programmed_time: f64,
+    /// Time lost (s): `cycle_time - programmed_time`.
+    pub time_lost: f64,
+    /// What lost the most time (`corner`, `C jerk`, …; `programmed` when nothing was lost).
+    pub cause: String,
+}
+
+/// A slowdown marked in the program, for the header.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct MarkedSlowdown {
+    /// Its number: the comment before its first block reads `slowdown #<number>: <text>`.
+    pub number: usize,
+    /// Index into [`Solved::steps`] of its first block (the comment stands before its motion).
+    pub step: usize,
+    /// The CL file's line of that step (1-based).
+    pub line: usize,
+    /// Time lost (s), exact stops aside.
+    pub time_lost: f64,
+    /// What the comment says after `slowdown #<number>: ` (`38% of F over 12 blocks, C jerk,
+    /// 0.42 s lost`), cleaned like comment text in the header.
+    pub text: String,
 }
 
 /// An axis of the machine.
@@ -371,10 +407,24 @@ pub fn header(motion: &postpro_motion::Program, machine: &Machine, dialect: &Dia
         linearized_points: motion.summary.linearized_points,
         tolerance: machine.policy.linearization_tolerance,
         decisions: motion.summary.decisions,
-        prediction: options
-            .prediction
-            .as_ref()
-            .map(|p| Prediction { planner: clean_comment(dialect, &p.planner), ..p.clone() }),
+        prediction: options.prediction.as_ref().map(|p| Prediction {
+            planner: clean_comment(dialect, &p.planner),
+            operations: p
+                .operations
+                .iter()
+                .map(|o| OperationPrediction {
+                    name: clean_comment(dialect, &o.name),
+                    cause: clean_comment(dialect, &o.cause),
+                    ..o.clone()
+                })
+                .collect(),
+            worst: p
+                .worst
+                .iter()
+                .map(|m| MarkedSlowdown { text: clean_comment(dialect, &m.text), ..m.clone() })
+                .collect(),
+            ..p.clone()
+        }),
     }
 }
 

@@ -11,7 +11,10 @@ use std::collections::HashMap;
 
 use postpro_cl::{Source, ToolPath, read};
 use postpro_emit::bspline::{DEGREE, Spline};
-use postpro_emit::{Annotation, Dialect, Mode, Prediction, build, builtin_template, dialect, render};
+use postpro_emit::{
+    Annotation, Dialect, MarkedSlowdown, Mode, OperationPrediction, Prediction, build, builtin_template, dialect,
+    render,
+};
 use postpro_kin::{Joints, Kinematics, Solved, Step, StepKind, linearize, solve, solver_for};
 use postpro_machine::Registry;
 use postpro_machine::model::{AxisKind, Machine};
@@ -79,6 +82,29 @@ fn prediction() -> Prediction {
         share_below: 0.1234,
         planner: "vpop".into(),
         slowdowns: 2,
+        operations: vec![
+            OperationPrediction {
+                name: "ROUGH (D10)".into(),
+                cycle_time: 41.23,
+                programmed_time: 40.0,
+                time_lost: 1.23,
+                cause: "corner".into(),
+            },
+            OperationPrediction {
+                name: String::new(),
+                cycle_time: 20.0,
+                programmed_time: 20.0,
+                time_lost: 0.0,
+                cause: "programmed".into(),
+            },
+        ],
+        worst: vec![MarkedSlowdown {
+            number: 2,
+            step: 7,
+            line: 12,
+            time_lost: 0.42,
+            text: "38% of F over 12 blocks, C jerk (A), 0.42 s lost".into(),
+        }],
     }
 }
 
@@ -438,6 +464,17 @@ fn annotations_are_cleaned_cut_and_ordered() {
     assert_eq!(lines.iter().filter(|l| **l == "()").count(), 1, "the empty annotation is kept");
     assert!(text.contains("planner: inverse-time [fallback])"), "{text}");
     assert!(text.contains("predicted cycle time: NaN s"), "{text}");
+    // Per operation and the worst slowdowns, cleaned like every comment.
+    let header = [
+        "(operation ROUGH [D10]: predicted 41.2 s, at the programmed feed 40.0 s, lost 1.2 s, mostly corner)",
+        "(operation [unnamed]: predicted 20.0 s, at the programmed feed 20.0 s, lost 0.0 s)",
+        "(worst slowdown #2 at CL line 12: 38% of F over 12 blocks, C jerk [A], 0.42 s lost)",
+    ];
+    for line in header {
+        assert!(lines.contains(&line), "`{line}` in\n{text}");
+    }
+    let first_motion = lines.iter().position(|l| l.starts_with("G0") || l.starts_with("G1")).expect("motion");
+    assert!(lines.iter().position(|l| *l == header[2]).is_some_and(|i| i < first_motion), "in the header");
 }
 
 /// A whole 5-axis example (its splines refined by the fit, decisions, retracts), an annotation on

@@ -28,7 +28,7 @@ pub use corner::{blend_radius, corner_speed, interior_angle};
 pub use moves::{BlockKind, Blocks, Timing, blocks};
 pub use plan::Limit;
 pub use profile::{Profile, State, speed_change};
-pub use report::{BlockResult, Prediction, Samples, Slowdown, Totals, describe};
+pub use report::{BlockResult, Cause, Mark, MarkRules, Operation, Prediction, Samples, Totals, describe};
 
 use postpro_kin::Kinematics;
 
@@ -85,28 +85,18 @@ pub fn predict(blocks: &Blocks, kin: &dyn Kinematics, options: &Options) -> Pred
     };
     let period = options.period.unwrap_or(machine.cnc.cycle_time);
     let keep = options.samples.then_some(kin);
-    let mut collector = report::Collector::new(
-        blocks,
-        &owner,
-        track.pieces.iter().map(|p| p.length),
-        keep,
-        curves.as_ref(),
-        options.threshold,
-    );
+    let mut collector = report::Collector::new(blocks, &track, &owner, keep, curves.as_ref(), options.threshold);
     let cycle_time = plan::run(&track, period, &mut collector);
     collector.finish();
-    // The time the program asks for: feed moves at their programmed feed; rapids and
-    // reorientations (which have no feed to keep) as predicted; dwells.
-    let programmed_time: f64 = (0..blocks.len())
-        .map(|i| if blocks.kind[i] == BlockKind::Feed { blocks.nominal[i] } else { collector.results[i].time })
-        .sum::<f64>()
-        + blocks.dwell_before.iter().sum::<f64>();
+    let operations = collector.operations();
+    // Time lost is the blocks'; the time at the programmed feed is what remains of the cycle.
+    let time_lost: f64 = collector.results.iter().map(|b| b.lost).sum();
     let feed_length =
         blocks.length.iter().zip(&blocks.kind).filter(|(_, k)| **k == BlockKind::Feed).map(|(l, _)| l).sum();
     let totals = Totals {
         cycle_time,
-        programmed_time,
-        time_lost: cycle_time - programmed_time,
+        programmed_time: cycle_time - time_lost,
+        time_lost,
         feed_length,
         length_below: collector.length_below,
         threshold: options.threshold,
@@ -117,5 +107,6 @@ pub fn predict(blocks: &Blocks, kin: &dyn Kinematics, options: &Options) -> Pred
         samples: collector.samples,
         totals: Some(totals),
         notes: blocks.notes.clone(),
+        operations,
     }
 }

@@ -32,7 +32,8 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
         }
         blocks.delta(i, &mut delta);
         let piece = piece(blocks, machine, i, &delta, nominal);
-        let corner = match track.last_block() {
+        let previous = track.last_block();
+        let corner = match previous {
             Some(previous) if !track.stop_pending() => {
                 blocks.delta(previous, &mut previous_delta);
                 // In programmed time a block's axis rates are ΔP / T and its tip covers its
@@ -49,7 +50,7 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
             }
             _ => f64::INFINITY,
         };
-        track.push(piece, i, corner);
+        track.push(piece, i, corner, blocks.junction_limit(previous, i));
     }
     // Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
     // N + 10 is taken into account": the current block and `look_ahead` more.
@@ -76,7 +77,9 @@ fn piece(blocks: &Blocks, machine: &Machine, i: usize, delta: &[f64], nominal: f
     if rapid && velocity_limit != Limit::CycleTime {
         velocity_limit = Limit::Rapid;
     }
-    if velocity >= 1.0 {
+    // At the programmed feed the share is 1 exactly: (1 / T) · T may round below it, and a cap
+    // one ulp under the next block's makes the interpolator brake for nothing.
+    if velocity >= 1.0 || limits.limiter == Limiter::Programmed {
         velocity = 1.0;
     }
     let mut acceleration = limits.acceleration.0 * nominal;

@@ -90,6 +90,15 @@ pub struct Blocks {
     pub splines: Vec<SplineRun>,
     /// Where an assumption was made (a feed per revolution without a spindle speed, no feed).
     pub notes: Vec<Note>,
+    /// True for a feed block that moves the tip along the tool axis (within 1°): a plunge, or a
+    /// retract at feed.
+    pub along_axis: Vec<bool>,
+    /// The operation of each block (index into [`Self::operations`]).
+    pub operation: Vec<u32>,
+    /// The names of the CL file's operations that have blocks, in order (`OperationStart`
+    /// items: NX `TOOL PATH/`, CAMWorks `OPFEATSTART`, …); an empty name for the blocks before
+    /// the first one, or of an operation without a name.
+    pub operations: Vec<String>,
 }
 
 impl Blocks {
@@ -128,6 +137,17 @@ impl Blocks {
         if self.nominal[i] > 0.0 { self.length[i] / self.nominal[i] } else { 0.0 }
     }
 
+    /// What caps the junction from block `previous` into block `i`: `Plunge` where either moves
+    /// the tip along the tool axis (a plunge, a retract at feed: the program asks the tool to
+    /// turn there), else `Corner`.
+    pub fn junction_limit(&self, previous: Option<usize>, i: usize) -> crate::plan::Limit {
+        if self.along_axis[i] || previous.is_some_and(|p| self.along_axis[p]) {
+            crate::plan::Limit::Plunge
+        } else {
+            crate::plan::Limit::Corner
+        }
+    }
+
     /// The programmed pose before block `i` (after block `i - 1`).
     pub fn pose(&self, i: usize) -> postpro_kin::Pose {
         postpro_kin::Pose { tip: self.tips[i], axis: self.tool_axes[i] }
@@ -144,7 +164,7 @@ impl Blocks {
 /// feeds per minute.
 pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timing) -> Blocks {
     let mut out = Blocks { axes: machine.axes.len(), ..Blocks::default() };
-    let mut state = State { stop: true, dwell: 0.0, rpm: None, feed: None, started: false };
+    let mut state = State { stop: true, dwell: 0.0, rpm: None, feed: None, started: false, operation: None };
     for block in &program.blocks {
         match &block.kind {
             MotionKind::Rapid(to) => push_block(&mut out, machine, timing, to, Feed::Rapid, &mut state),
@@ -199,11 +219,14 @@ struct State {
     feed: Option<f64>,
     /// The first position is known: the machine starts there.
     started: bool,
+    /// An operation started since the last block: the next block opens it.
+    operation: Option<String>,
 }
 
 impl State {
     fn item(&mut self, kind: &MotionKind) {
         match kind {
+            MotionKind::Operation(name) => self.operation = Some(name.clone()),
             MotionKind::ToolChange(_) | MotionKind::Stop(_) | MotionKind::OptionalStop => self.stop = true,
             MotionKind::SpindleOn { speed, surface_speed, .. } => {
                 self.stop = true;
@@ -300,10 +323,20 @@ fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position
     out.cl.push(matches!(to.kind, StepKind::Cl | StepKind::Reengage));
     state.stop = false;
     state.dwell = 0.0;
+    let direction = to.pose.tip - from_tip;
+    let cos = if length > 1e-9 { (direction / length).dot(&to.pose.axis).abs() } else { 0.0 };
+    out.along_axis.push(kind == BlockKind::Feed && cos >= 1f64.to_radians().cos());
     out.length.push(length);
     out.feed.push(speed);
     out.nominal.push(nominal);
     out.kind.push(kind);
     out.step.push(to.step);
+    // The one place blocks get their operation: an operation opens with its first block.
+    if let Some(name) = state.operation.take() {
+        out.operations.push(name);
+    } else if out.operations.is_empty() {
+        out.operations.push(String::new());
+    }
+    out.operation.push((out.operations.len() - 1) as u32);
     out.push_position(b, &to.pose);
 }

@@ -45,6 +45,9 @@ pub enum Limit {
     /// The block runs at its programmed F, but F is the feed of the linear axes (G1 without
     /// TCP): the tool tip moves slower than the CL file's feed.
     AxisFeed,
+    /// Where a move along the tool axis (a plunge, a retract at feed) meets the path: the program
+    /// asks the tool to turn there, as at an exact stop.
+    Plunge,
 }
 
 /// A piece of the track: constant caps on the parameter's derivatives, and why each holds.
@@ -154,13 +157,13 @@ impl TrackBuilder {
     }
 
     /// Adds `piece` for `block`; the junction before it is an exact stop when one is pending,
-    /// else a corner capped at `corner`.
-    pub fn push(&mut self, piece: Piece, block: usize, corner: f64) {
+    /// else capped at `corner` for the reason `why` (a corner, a plunge).
+    pub fn push(&mut self, piece: Piece, block: usize, corner: f64, why: Limit) {
         if let Some(last) = self.junctions.last_mut() {
             *last = if self.stop_pending {
                 Junction { cap: 0.0, limit: Limit::Stop, dwell: self.dwell_pending }
             } else {
-                Junction { cap: corner, limit: Limit::Corner, dwell: 0.0 }
+                Junction { cap: corner, limit: why, dwell: 0.0 }
             };
         } else {
             self.dwell_at_start = self.dwell_pending;
@@ -199,8 +202,20 @@ pub struct Sample {
     pub j: f64,
     /// The piece `u` is in.
     pub piece: usize,
-    /// What held the step back.
+    /// What held the step back, as shown: the piece's speed cap once the speed is at it.
     pub limit: Limit,
+    /// What bound the step's jerk.
+    pub bound: Limit,
+    /// True when `bound` is a cap ahead that the motion brakes for (a junction, an exact stop,
+    /// the end of the look-ahead), false when it is a cap of the piece the motion is on.
+    pub ahead: bool,
+}
+
+impl Sample {
+    /// A sample at rest, held by `limit` (`bound` alike).
+    fn at_rest(t: f64, u: f64, j: f64, piece: usize, limit: Limit, ahead: bool) -> Sample {
+        Sample { t, u, v: 0.0, a: 0.0, j, piece, limit, bound: limit, ahead }
+    }
 }
 
 /// What the stepper reports.
@@ -228,9 +243,10 @@ pub fn run(track: &Track, h: f64, observer: &mut dyn Observer) -> f64 {
         caps.push(if i + 1 == n { (0.0, Limit::Stop) } else { track.junction_cap(i) });
     }
     let mut s = Stepper { track, ends, caps, h, t: track.dwell_at_start, u: 0.0, v: 0.0, a: 0.0, k: 0, cruise: None };
-    observer.sample(&Sample { t: s.t, u: 0.0, v: 0.0, a: 0.0, j: 0.0, piece: 0, limit: Limit::Stop });
+    observer.sample(&Sample::at_rest(s.t, 0.0, 0.0, 0, Limit::Stop, true));
     s.go(observer);
-    s.t
+    // A dwell after the last piece is spent at its end.
+    s.t + track.junctions[n - 1].dwell
 }
 
 struct Stepper<'a> {
@@ -265,7 +281,7 @@ impl Stepper<'_> {
             guard += 1;
             let piece = self.track.pieces[self.k];
             let piece_was = self.k;
-            let (j, limit) = self.choose();
+            let (j, limit, ahead) = self.choose();
             if self.caps[self.k].0 <= 0.0
                 && let Some(tau) = final_phase(self.a, j, self.h)
                 && tau <= self.h
@@ -277,7 +293,7 @@ impl Stepper<'_> {
                 self.v = 0.0;
                 self.a = 0.0;
                 observer.crossing(self.k, self.t, 0.0, Limit::Stop);
-                observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit: Limit::Stop });
+                observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, Limit::Stop, true));
                 self.k += 1;
                 if self.k == n {
                     return;
@@ -313,15 +329,7 @@ impl Stepper<'_> {
                 self.k += 1;
             }
             if crossed_stop {
-                observer.sample(&Sample {
-                    t: self.t,
-                    u: self.u,
-                    v: 0.0,
-                    a: 0.0,
-                    j,
-                    piece: self.k - 1,
-                    limit: Limit::Stop,
-                });
+                observer.sample(&Sample::at_rest(self.t, self.u, j, self.k - 1, Limit::Stop, true));
                 if self.k == n {
                     return;
                 }
@@ -342,7 +350,7 @@ impl Stepper<'_> {
                 if rest > 10.0 * piece.jerk * self.h.powi(3) && guard <= 200_000_000 {
                     // Stopped short of a look-ahead window's end: start again from rest.
                     self.u = u_rest;
-                    observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit });
+                    observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
                     continue;
                 }
                 // Braking ended a hair before the junction (the period's rounding): cover the
@@ -351,7 +359,7 @@ impl Stepper<'_> {
                 self.u = at;
                 let why = if self.caps[self.k].0 <= 0.0 { Limit::Stop } else { Limit::LookAhead };
                 observer.crossing(self.k, self.t, 0.0, why);
-                observer.sample(&Sample { t: self.t, u: self.u, v: 0.0, a: 0.0, j, piece: self.k, limit });
+                observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
                 self.k += 1;
                 if self.k == n || self.u >= end {
                     return;
@@ -391,12 +399,14 @@ impl Stepper<'_> {
             } else {
                 limit
             };
-            observer.sample(&Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: piece_now, limit: shown });
+            let sample =
+                Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: piece_now, limit: shown, bound: limit, ahead };
+            observer.sample(&sample);
         }
     }
 
-    /// The largest jerk for the next step, and what bounds it.
-    fn choose(&mut self) -> (f64, Limit) {
+    /// The largest jerk for the next step, what bounds it, and whether that is a cap ahead.
+    fn choose(&mut self) -> (f64, Limit, bool) {
         let h = self.h;
         let (u, v, a) = (self.u, self.v, self.a);
         let here = &self.track.pieces[self.k];
@@ -407,7 +417,7 @@ impl Stepper<'_> {
             && v == here.velocity
             && u + v * h < until
         {
-            return (0.0, here.velocity_limit);
+            return (0.0, here.velocity_limit, false);
         }
         self.cruise = None;
         // The caps of every piece this step may enter: the jerk and acceleration chosen hold
@@ -430,6 +440,7 @@ impl Stepper<'_> {
         let p = &p;
         let mut j = p.jerk;
         let mut limit = p.jerk_limit;
+        let mut ahead = false;
         // Acceleration cap.
         let ja = (p.acceleration - a) / h;
         if ja < j {
@@ -446,7 +457,7 @@ impl Stepper<'_> {
         // into a piece with less clamps the acceleration there, see `go`).
         let floor = (-p.jerk).max((-self.track.pieces[self.k].acceleration - a) / h);
         if j <= floor {
-            return (floor, limit);
+            return (floor, limit, false);
         }
         // Junctions ahead, within the window and within braking reach.
         let pieces = &self.track.pieces;
@@ -477,7 +488,9 @@ impl Stepper<'_> {
                 comes_into_reach = Some(at - 1.25 * reach);
                 break;
             }
-            let (cap, why) = if m == last && m + 1 < n { (0.0, Limit::LookAhead) } else { self.caps[m] };
+            // The window's end, unless the program stops there anyway.
+            let (cap, why) =
+                if m == last && m + 1 < n && self.caps[m].0 > 0.0 { (0.0, Limit::LookAhead) } else { self.caps[m] };
             // The motion stops at a junction capped at 0: nothing after it matters.
             let stop = cap <= 0.0;
             // A cap the speed cannot reach is no constraint.
@@ -501,6 +514,7 @@ impl Stepper<'_> {
             let fits = |jj: f64| slack(jj) >= 0.0;
             if !fits(j) {
                 limit = why;
+                ahead = true;
 
                 j = if fits(floor) {
                     largest_fitting(&slack, floor, j)
@@ -519,7 +533,7 @@ impl Stepper<'_> {
             let until = comes_into_reach.unwrap_or(f64::NEG_INFINITY).min(self.ends[self.k]) - v * h;
             self.cruise = Some((self.k, until));
         }
-        (j, limit)
+        (j, limit, ahead)
     }
 }
 

@@ -1,7 +1,27 @@
-//! What a prediction tells: per block, per sample, and for the whole program.
+//! What a prediction tells: per block, per sample, per operation and for the whole program.
+//!
+//! **Time lost** is defined once, per feed block: its predicted time (a dwell before it aside)
+//! minus its time at the programmed feed (its tip length over the CL file's feed). Rapids and
+//! blocks that only turn the tool lose nothing by definition: the program asks for no feed there.
+//! Every other figure derives from it: the program's and each operation's time lost are sums of
+//! it, the time at the programmed feed is the cycle time minus it.
+//!
+//! The **causes** partition it. In G1 output the program itself asks for another time than the
+//! CL file's feed (F is read as the feed of the linear axes): that difference is `G1 feed on
+//! the axes`. The rest, the time beyond what the program asks for, is split step by step of the
+//! interpolator: each step's time minus its programmed time goes to what held the step back — a
+//! corner, an exact stop, the look-ahead, an axis's velocity, the cycle time — and the steps that
+//! accelerate out of a dip go to what caused the dip (the jerk that limits the acceleration only
+//! says how fast the machine recovers). The steps that accelerate out of or brake into an exact
+//! stop the program asks for (a rapid, a tool change, a stop, a dwell, the program's ends) are
+//! `exact stop`, those around the turn at the end of a plunge or the start of a retract at feed
+//! (a move along the tool axis) `plunge or retract`: no programmer can remove them by changing
+//! the path, and a [`Mark`] does not count them.
+
+use std::collections::BTreeMap;
 
 use crate::moves::{BlockKind, Blocks};
-use crate::plan::{Limit, Observer, Sample};
+use crate::plan::{Limit, Observer, Sample, Track};
 use crate::vpop::{Curves, Segment};
 use postpro_kin::{Joints, Kinematics};
 use postpro_machine::model::Machine;
@@ -25,12 +45,34 @@ pub struct BlockResult {
     pub time: f64,
     /// What holds the feed back where it is lowest.
     pub limit: Limit,
+    /// Time lost (s): the predicted time, a dwell before the block aside, minus the time at the
+    /// programmed feed; 0 for rapids and reorientations (see the module's documentation).
+    pub lost: f64,
+    /// The part of [`Self::lost`] spent accelerating out of or braking into an exact stop, a
+    /// plunge or a retract (what the program itself asks to stop or turn at).
+    pub stop_lost: f64,
+    /// What lost the most time on the block apart from those (`Programmed` when nothing).
+    pub cause: Limit,
+    /// The lowest predicted tip feed apart from the acceleration out of and the braking into
+    /// exact stops, plunges and retracts (mm/min; the programmed feed when the block is at it
+    /// everywhere else).
+    pub min_feed_between_stops: f64,
 }
 
 impl BlockResult {
     /// The lowest feed as a share of the programmed one (1 for rapids and reorientations).
     pub fn min_ratio(&self) -> f64 {
         if self.kind == BlockKind::Feed && self.programmed > 0.0 { self.min_feed / self.programmed } else { 1.0 }
+    }
+
+    /// [`Self::min_feed_between_stops`] as a share of the programmed feed (1 for rapids and
+    /// reorientations).
+    pub fn min_ratio_between_stops(&self) -> f64 {
+        if self.kind == BlockKind::Feed && self.programmed > 0.0 {
+            self.min_feed_between_stops / self.programmed
+        } else {
+            1.0
+        }
     }
 }
 
@@ -81,10 +123,10 @@ impl Samples {
 pub struct Totals {
     /// Predicted cycle time (s), dwells included.
     pub cycle_time: f64,
-    /// The time the program asks for: every block at its programmed feed, rapids at the axes'
-    /// speed, dwells (s).
+    /// The time at the programmed feed: every feed block at the CL file's feed, rapids and
+    /// reorientations as predicted, dwells (s); the cycle time minus the time lost.
     pub programmed_time: f64,
-    /// Predicted minus programmed time (s).
+    /// The sum of the blocks' time lost (s).
     pub time_lost: f64,
     /// Tip length of the feed moves (mm).
     pub feed_length: f64,
@@ -103,17 +145,80 @@ impl Totals {
     }
 }
 
-/// A run of feed blocks predicted below the threshold.
+/// Time lost to one cause.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Slowdown {
+pub struct Cause {
+    /// The cause.
+    pub limit: Limit,
+    /// Time lost to it (s); negative where G1 output runs a block faster than the CL file's feed.
+    pub seconds: f64,
+    /// The feed blocks for which it is the main cause.
+    pub blocks: usize,
+}
+
+/// The figures of one operation of the CL file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Operation {
+    /// Its name (empty: the blocks before the first operation, or an operation without a name).
+    pub name: String,
+    /// Its first and last block (indices into [`Prediction::blocks`]).
+    pub first: usize,
+    /// Its last block.
+    pub last: usize,
+    /// Predicted time (s), dwells included.
+    pub cycle_time: f64,
+    /// Time at the programmed feed (s): `cycle_time - time_lost`.
+    pub programmed_time: f64,
+    /// The sum of its blocks' time lost (s).
+    pub time_lost: f64,
+    /// The time lost by cause, the largest first; the seconds add up to `time_lost`.
+    pub causes: Vec<Cause>,
+}
+
+impl Operation {
+    /// The cause that lost the most time (`Programmed` when none lost any).
+    pub fn main_cause(&self) -> Limit {
+        self.causes.first().filter(|c| c.seconds > 0.0).map_or(Limit::Programmed, |c| c.limit)
+    }
+}
+
+/// What makes a slowdown worth a mark in the program.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarkRules {
+    /// A block is slow below this share of its programmed feed.
+    pub threshold: f64,
+    /// A run of slow blocks is marked when it loses at least this (s), exact stops aside.
+    pub min_loss: f64,
+    /// At most this many marks per operation, the worst kept.
+    pub max_per_operation: usize,
+}
+
+impl Default for MarkRules {
+    fn default() -> Self {
+        MarkRules { threshold: 0.8, min_loss: 0.05, max_per_operation: 10 }
+    }
+}
+
+/// A slowdown worth a programmer's look: a run of feed blocks below the threshold (apart from
+/// the acceleration out of and the braking into exact stops) that loses at least the minimum.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mark {
+    /// Its number, from 1, in program order among the marks kept.
+    pub number: usize,
     /// First block of the run (index into [`Prediction::blocks`]).
     pub first: usize,
     /// Last block of the run.
     pub last: usize,
-    /// The lowest feed over the run as a share of the programmed one.
+    /// The feed blocks of the run.
+    pub blocks: usize,
+    /// The lowest feed over the run as a share of the programmed one, exact stops aside.
     pub ratio: f64,
-    /// What holds it there.
-    pub limit: Limit,
+    /// What lost the most time over the run.
+    pub cause: Limit,
+    /// Time lost over the run apart from exact stops (s).
+    pub lost: f64,
+    /// Its operation (index into [`Prediction::operations`]).
+    pub operation: usize,
 }
 
 /// A prediction.
@@ -127,6 +232,8 @@ pub struct Prediction {
     pub totals: Option<Totals>,
     /// The assumptions made (a feed per revolution without a spindle speed, no feed).
     pub notes: Vec<crate::moves::Note>,
+    /// The operations of the CL file that have blocks, in order.
+    pub operations: Vec<Operation>,
 }
 
 impl Prediction {
@@ -143,33 +250,97 @@ impl Prediction {
         })
     }
 
-    /// The runs of consecutive feed blocks whose lowest feed is below `threshold` × programmed.
-    pub fn slowdowns(&self, threshold: f64) -> Vec<Slowdown> {
-        let mut runs: Vec<Slowdown> = Vec::new();
-        let mut open = false;
-        for (i, b) in self.blocks.iter().enumerate() {
-            // Starting from or coming to an exact stop is no slowdown a programmer can act on.
-            let slow = b.kind == BlockKind::Feed && b.min_ratio() < threshold && b.limit != Limit::Stop;
-            match runs.last_mut() {
-                Some(run) if open && slow => {
-                    run.last = i;
-                    if b.min_ratio() < run.ratio {
-                        run.ratio = b.min_ratio();
-                        run.limit = b.limit;
+    /// The time lost by cause over the whole program, the largest first; the seconds add up to
+    /// the time lost.
+    pub fn causes(&self) -> Vec<Cause> {
+        merge(self.operations.iter().flat_map(|o| o.causes.iter().copied()))
+    }
+
+    /// The slowdowns worth a mark, in program order, numbered from 1: the runs of consecutive
+    /// feed blocks whose lowest feed apart from exact stops is below the threshold, within one
+    /// operation, that lose at least `min_loss` apart from exact stops; at most
+    /// `max_per_operation` per operation, the worst kept.
+    pub fn marks(&self, rules: &MarkRules) -> Vec<Mark> {
+        let mut runs: Vec<Mark> = Vec::new();
+        // Per run: the time lost by each block's main cause.
+        let mut by_cause: Vec<BTreeMap<Limit, f64>> = Vec::new();
+        for op in 0..self.operations.len() {
+            let (first, last) = (self.operations[op].first, self.operations[op].last);
+            let mut open = false;
+            for i in first..=last {
+                let b = &self.blocks[i];
+                if b.kind == BlockKind::Reorientation {
+                    continue; // neither breaks nor extends a run
+                }
+                let slow = b.kind == BlockKind::Feed && b.min_ratio_between_stops() < rules.threshold;
+                if !slow {
+                    open = false;
+                    continue;
+                }
+                let ratio = b.min_ratio_between_stops();
+                let own = b.lost - b.stop_lost;
+                match runs.last_mut() {
+                    Some(run) if open => {
+                        run.last = i;
+                        run.blocks += 1;
+                        run.ratio = run.ratio.min(ratio);
+                        run.lost += own;
+                    }
+                    _ => {
+                        runs.push(Mark {
+                            number: 0,
+                            first: i,
+                            last: i,
+                            blocks: 1,
+                            ratio,
+                            cause: b.cause,
+                            lost: own,
+                            operation: op,
+                        });
+                        by_cause.push(BTreeMap::new());
+                        open = true;
                     }
                 }
-                _ if slow => {
-                    runs.push(Slowdown { first: i, last: i, ratio: b.min_ratio(), limit: b.limit });
+                if let Some(causes) = by_cause.last_mut() {
+                    *causes.entry(b.cause).or_default() += own;
                 }
-                _ => {}
-            }
-            // Reorientations and zero-length blocks neither break nor extend a run.
-            if b.kind != BlockKind::Reorientation {
-                open = slow;
             }
         }
-        runs
+        for (run, causes) in runs.iter_mut().zip(&by_cause) {
+            if let Some((limit, _)) = causes.iter().max_by(|a, b| a.1.total_cmp(b.1)) {
+                run.cause = *limit;
+            }
+        }
+        runs.retain(|r| r.lost >= rules.min_loss);
+        // The worst of each operation, then back in program order.
+        runs.sort_by(|a, b| a.operation.cmp(&b.operation).then(b.lost.total_cmp(&a.lost)));
+        let mut kept: Vec<Mark> = Vec::with_capacity(runs.len());
+        for run in runs {
+            let count = kept.iter().rev().take_while(|k| k.operation == run.operation).count();
+            if count < rules.max_per_operation {
+                kept.push(run);
+            }
+        }
+        kept.sort_by_key(|m| m.first);
+        for (n, m) in kept.iter_mut().enumerate() {
+            m.number = n + 1;
+        }
+        kept
     }
+}
+
+/// Sums the seconds and blocks per cause, the largest first.
+fn merge(causes: impl Iterator<Item = Cause>) -> Vec<Cause> {
+    let mut sum: BTreeMap<Limit, (f64, usize)> = BTreeMap::new();
+    for c in causes {
+        let e = sum.entry(c.limit).or_default();
+        e.0 += c.seconds;
+        e.1 += c.blocks;
+    }
+    let mut out: Vec<Cause> =
+        sum.into_iter().map(|(limit, (seconds, blocks))| Cause { limit, seconds, blocks }).collect();
+    out.sort_by(|a, b| b.seconds.total_cmp(&a.seconds).then(a.limit.cmp(&b.limit)));
+    out
 }
 
 /// mm/s → mm/min, rounded to a millionth (a feed read as 500 mm/min stays 500).
@@ -193,13 +364,14 @@ pub fn describe(limit: Limit, machine: &Machine) -> String {
         Limit::Stop => "exact stop".into(),
         Limit::Rapid => "rapid".into(),
         Limit::AxisFeed => "G1 feed on the axes".into(),
+        Limit::Plunge => "plunge or retract".into(),
     }
 }
 
-/// Collects the stepper's output into block results and samples, for the inverse-time model
-/// (blocks linear in the axes over their programmed time).
+/// Collects the stepper's output into block results, time lost by cause and samples.
 pub(crate) struct Collector<'a> {
     blocks: &'a Blocks,
+    track: &'a Track,
     /// The block of each piece.
     owner: &'a [usize],
     /// Start and length of each piece in the parameter.
@@ -213,8 +385,9 @@ pub(crate) struct Collector<'a> {
     pub(crate) results: Vec<BlockResult>,
     /// Time each block was entered.
     entered: Vec<f64>,
-    /// Lowest `u̇` per block.
+    /// Lowest `u̇` per block, and lowest apart from exact stops.
     min_speed: Vec<f64>,
+    min_speed_between_stops: Vec<f64>,
     pub(crate) samples: Option<Samples>,
     kin: Option<&'a dyn Kinematics>,
     curves: Option<&'a Curves>,
@@ -224,37 +397,96 @@ pub(crate) struct Collector<'a> {
     pub(crate) count: u64,
     threshold: f64,
     scratch: Vec<f64>,
+    /// Per block with pieces: the time the program asks for (its nominal duration and those of
+    /// the blocks of no piece before it, which it stands for), its time at the CL file's feed,
+    /// and the programmed time per unit of the parameter.
+    asked: Vec<f64>,
+    at_feed: Vec<f64>,
+    rate: Vec<f64>,
+    /// The dwell spent at the start of each block.
+    dwell_in: Vec<f64>,
+    split: Split,
+    /// Per operation, the time lost by cause.
+    causes: Vec<BTreeMap<Limit, (f64, usize)>>,
+}
+
+/// True for what the program itself asks the motion to stop or turn at: an exact stop, a plunge
+/// or a retract. A mark does not count the time lost to it.
+fn asked_for(cause: Limit) -> bool {
+    matches!(cause, Limit::Stop | Limit::Plunge)
+}
+
+/// Less than this (s) is no block's main cause: the rounding of the steps.
+const MAIN_CAUSE_FLOOR: f64 = 1e-6;
+
+/// The step-by-step split of the time lost among its causes.
+struct Split {
+    /// Time, parameter and piece of the last point accounted for.
+    t: f64,
+    u: f64,
+    piece: usize,
+    started: bool,
+    /// The current step's parts in the blocks it crossed: (block, time beyond the programmed
+    /// time), and the speeds at its crossings: (block, `u̇`).
+    parts: Vec<(usize, f64)>,
+    speeds: Vec<(usize, f64)>,
+    /// What caused the dip the motion is in (accelerating out of it inherits it).
+    dip: Option<Limit>,
+    /// The block being accumulated and its time lost by cause.
+    block: Option<usize>,
+    shares: Vec<(Limit, f64)>,
 }
 
 impl<'a> Collector<'a> {
     pub(crate) fn new(
         blocks: &'a Blocks,
+        track: &'a Track,
         owner: &'a [usize],
-        lengths: impl Iterator<Item = f64>,
         keep_samples: Option<&'a dyn Kinematics>,
         curves: Option<&'a Curves>,
         threshold: f64,
     ) -> Self {
+        let n = blocks.len();
         let mut piece_start = Vec::with_capacity(owner.len());
         let mut piece_length = Vec::with_capacity(owner.len());
-        let mut scale = vec![0.0; blocks.len()];
+        let mut scale = vec![0.0; n];
+        let mut span = vec![0.0; n];
+        let mut dwell_in = vec![0.0; n];
         let mut u = 0.0;
-        for (l, &b) in lengths.zip(owner) {
+        for (p, (piece, &b)) in track.pieces.iter().zip(owner).enumerate() {
+            let l = piece.length;
             piece_start.push(u);
             piece_length.push(l);
-            let curve =
-                curves.is_some_and(|c| matches!(c.segments.get(piece_start.len() - 1), Some(Segment::Curve { .. })));
+            let curve = curves.is_some_and(|c| matches!(c.segments.get(p), Some(Segment::Curve { .. })));
             // On a spline the parameter is the tip's chord length: about 1 mm of tip per unit.
             scale[b] = if curve { 1.0 } else { blocks.length[b] / l };
+            if p == 0 || owner[p - 1] != b {
+                dwell_in[b] = if p == 0 { track.dwell_at_start } else { track.junctions[p - 1].dwell };
+            }
+            span[b] += l;
             u += l;
         }
-        let mut path_start = Vec::with_capacity(blocks.len());
+        // A block of no piece is covered by the next block that has one.
+        let (mut asked, mut at_feed, mut rate) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut asked_before, mut at_feed_before) = (0.0, 0.0);
+        for b in 0..n {
+            asked_before += blocks.nominal[b];
+            at_feed_before += match blocks.kind[b] {
+                BlockKind::Feed if blocks.feed[b] > 0.0 => blocks.length[b] / blocks.feed[b],
+                _ => blocks.nominal[b],
+            };
+            if span[b] > 0.0 {
+                (asked[b], at_feed[b], rate[b]) = (asked_before, at_feed_before, asked_before / span[b]);
+                (asked_before, at_feed_before) = (0.0, 0.0);
+            }
+        }
+        let mut path_start = Vec::with_capacity(n);
         let mut s = 0.0;
         for &l in &blocks.length {
             path_start.push(s);
             s += l;
         }
-        let results = (0..blocks.len())
+        let results = (0..n)
             .map(|i| {
                 let programmed = per_minute(blocks.feed[i]);
                 BlockResult {
@@ -266,19 +498,25 @@ impl<'a> Collector<'a> {
                     mean_feed: programmed,
                     time: 0.0,
                     limit: Limit::Programmed,
+                    lost: 0.0,
+                    stop_lost: 0.0,
+                    cause: Limit::Programmed,
+                    min_feed_between_stops: programmed,
                 }
             })
             .collect();
         Collector {
             blocks,
+            track,
             owner,
             piece_start,
             piece_length,
             scale,
             path_start,
             results,
-            entered: vec![0.0; blocks.len()],
-            min_speed: vec![f64::INFINITY; blocks.len()],
+            entered: vec![0.0; n],
+            min_speed: vec![f64::INFINITY; n],
+            min_speed_between_stops: vec![f64::INFINITY; n],
             samples: keep_samples.map(|_| Samples { axes: blocks.axes, ..Samples::default() }),
             kin: keep_samples,
             curves,
@@ -288,6 +526,12 @@ impl<'a> Collector<'a> {
             count: 0,
             threshold,
             scratch: vec![0.0; blocks.axes],
+            asked,
+            at_feed,
+            rate,
+            dwell_in,
+            split: Split::empty(),
+            causes: vec![BTreeMap::new(); blocks.operations.len()],
         }
     }
 
@@ -301,30 +545,186 @@ impl<'a> Collector<'a> {
 
     /// What to report for parameter speed `v` on `block` held by `limit`: `Programmed` when
     /// the tip reaches the programmed feed, `AxisFeed` when the CNC is at its F but the tip is
-    /// not (G1 timing).
+    /// not (G1 timing: the nominal tip feed is below the programmed one).
     fn shown(&self, block: usize, v: f64, limit: Limit) -> Limit {
         let feed = self.blocks.feed[block];
         let tip = v * self.scale[block];
         if feed > 0.0 && tip >= 0.999 * feed {
             Limit::Programmed
-        } else if limit == Limit::Programmed && self.blocks.kind[block] == BlockKind::Feed {
+        } else if limit == Limit::Programmed
+            && self.blocks.kind[block] == BlockKind::Feed
+            && self.blocks.nominal_tip_feed(block) < 0.999 * feed
+        {
             Limit::AxisFeed
         } else {
             limit
         }
     }
 
-    /// Ends the results: feeds from the shares, mean feeds from the times.
+    /// What the step that ends with `s` lost its time to (see the module's documentation).
+    fn cause(&mut self, s: &Sample) -> Limit {
+        let piece = &self.track.pieces[s.piece];
+        let dip = &mut self.split.dip;
+        if s.ahead {
+            // Braking for what is ahead: the dip is its.
+            *dip = Some(s.bound);
+            s.bound
+        } else if s.v >= piece.velocity * (1.0 - 1e-6) {
+            // At the piece's cap (the cruise snaps to it): the dip is over, or is the cap's.
+            let cap = piece.velocity_limit;
+            *dip = (cap != Limit::Programmed).then_some(cap);
+            cap
+        } else {
+            // Accelerating: still the dip's.
+            dip.unwrap_or(s.bound)
+        }
+    }
+
+    /// The part of the current step from the last point accounted for to parameter `u` at time
+    /// `t`, in the piece the motion is in.
+    fn part(&mut self, t: f64, u: f64) {
+        let block = self.owner[self.split.piece];
+        let beyond = (t - self.split.t) - (u - self.split.u) * self.rate[block];
+        self.split.parts.push((block, beyond));
+    }
+
+    /// Gives the parts of the step that ends with `s` to its cause.
+    fn account(&mut self, s: &Sample) {
+        if !self.split.started {
+            (self.split.t, self.split.u, self.split.piece, self.split.started) = (s.t, s.u, s.piece, true);
+            return;
+        }
+        self.part(s.t, s.u);
+        (self.split.t, self.split.u) = (s.t, s.u);
+        let cause = self.cause(s);
+        let owner = self.owner[s.piece];
+        self.split.speeds.push((owner, s.v));
+        let parts = std::mem::take(&mut self.split.parts);
+        for &(block, beyond) in &parts {
+            self.share(block, cause, beyond);
+        }
+        self.split.parts = parts;
+        self.split.parts.clear();
+        if !asked_for(cause) {
+            for &(block, v) in &self.split.speeds {
+                let low = &mut self.min_speed_between_stops[block];
+                *low = low.min(v);
+            }
+        }
+        self.split.speeds.clear();
+    }
+
+    /// Adds `seconds` lost to `cause` on `block`.
+    fn share(&mut self, block: usize, cause: Limit, seconds: f64) {
+        if self.split.block != Some(block) {
+            if let Some(done) = self.split.block {
+                self.close(done);
+            }
+            self.split.block = Some(block);
+        }
+        match self.split.shares.iter_mut().find(|(l, _)| *l == cause) {
+            Some(share) => share.1 += seconds,
+            None => self.split.shares.push((cause, seconds)),
+        }
+    }
+
+    /// Ends the split of `block`: its main cause, its time lost to exact stops, and its shares
+    /// added to its operation's.
+    fn close(&mut self, block: usize) {
+        let mut shares = std::mem::take(&mut self.split.shares);
+        if self.blocks.kind[block] == BlockKind::Feed {
+            // Rounding aside (on a 3-axis machine both are the same sum).
+            let g1 = self.asked[block] - self.at_feed[block];
+            if g1.abs() > 1e-9 * self.asked[block] {
+                shares.push((Limit::AxisFeed, g1));
+            }
+            let result = &mut self.results[block];
+            result.stop_lost = shares.iter().filter(|(l, _)| asked_for(*l)).map(|(_, s)| s).sum();
+            result.cause = shares
+                .iter()
+                .filter(|(l, s)| !asked_for(*l) && *s > MAIN_CAUSE_FLOOR)
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map_or(Limit::Programmed, |(l, _)| *l);
+            let causes = &mut self.causes[self.blocks.operation[block] as usize];
+            for &(limit, seconds) in &shares {
+                causes.entry(limit).or_default().0 += seconds;
+            }
+            if result.cause != Limit::Programmed {
+                causes.entry(result.cause).or_default().1 += 1;
+            }
+        }
+        shares.clear();
+        self.split.shares = shares;
+    }
+
+    /// Ends the results: feeds from the shares, mean feeds from the times, the time lost.
     pub(crate) fn finish(&mut self) {
+        if let Some(block) = self.split.block.take() {
+            self.close(block);
+        }
         for (i, r) in self.results.iter_mut().enumerate() {
             if self.min_speed[i].is_finite() {
                 let lowest = self.min_speed[i] * self.scale[i] * 60.0;
                 r.min_feed = if r.kind == BlockKind::Feed { lowest.min(r.programmed) } else { lowest };
             }
+            if self.min_speed_between_stops[i].is_finite() {
+                let lowest = self.min_speed_between_stops[i] * self.scale[i] * 60.0;
+                r.min_feed_between_stops = if r.kind == BlockKind::Feed { lowest.min(r.programmed) } else { lowest };
+            }
             r.mean_feed = if r.time > 0.0 { r.length / r.time * 60.0 } else { 0.0 };
+            if r.kind == BlockKind::Feed && self.asked[i] > 0.0 {
+                r.lost = r.time - self.dwell_in[i] - self.at_feed[i];
+            }
             if r.kind != BlockKind::Feed {
                 r.programmed = 0.0;
             }
+        }
+    }
+
+    /// The operations with their figures.
+    pub(crate) fn operations(&mut self) -> Vec<Operation> {
+        let blocks = self.blocks;
+        let mut out: Vec<Operation> = blocks
+            .operations
+            .iter()
+            .map(|name| Operation {
+                name: name.clone(),
+                first: usize::MAX,
+                last: 0,
+                cycle_time: 0.0,
+                programmed_time: 0.0,
+                time_lost: 0.0,
+                causes: Vec::new(),
+            })
+            .collect();
+        for (i, r) in self.results.iter().enumerate() {
+            let op = &mut out[blocks.operation[i] as usize];
+            op.first = op.first.min(i);
+            op.last = i;
+            op.cycle_time += r.time;
+            op.time_lost += r.lost;
+        }
+        for (op, causes) in out.iter_mut().zip(std::mem::take(&mut self.causes)) {
+            op.programmed_time = op.cycle_time - op.time_lost;
+            op.causes = merge(causes.into_iter().map(|(limit, (seconds, blocks))| Cause { limit, seconds, blocks }));
+        }
+        out
+    }
+}
+
+impl Split {
+    /// Before the first sample: the program starts at rest.
+    fn empty() -> Split {
+        Split {
+            t: 0.0,
+            u: 0.0,
+            piece: 0,
+            started: false,
+            parts: Vec::new(),
+            speeds: Vec::new(),
+            dip: Some(Limit::Stop),
+            block: None,
+            shares: Vec::new(),
         }
     }
 }
@@ -332,6 +732,7 @@ impl<'a> Collector<'a> {
 impl Observer for Collector<'_> {
     fn sample(&mut self, s: &Sample) {
         self.count += 1;
+        self.account(s);
         let block = self.owner[s.piece];
         self.reach(block, s.v, s.limit);
         // The tip length covered since the last sample, below the threshold or not.
@@ -403,7 +804,19 @@ impl Observer for Collector<'_> {
         let block = self.owner[piece];
         self.reach(block, v, limit);
         self.results[block].time = t - self.entered[block];
+        // The step's part in the piece it leaves; a dwell after it belongs to no step.
+        self.split.piece = piece;
+        let end = self.piece_start[piece] + self.piece_length[piece];
+        self.part(t, end);
+        self.split.speeds.push((block, v));
+        self.split.u = end;
+        self.split.t = t;
+        if piece + 1 < self.owner.len() {
+            self.split.t += self.track.junctions[piece].dwell;
+            self.split.piece = piece + 1;
+        }
         if let Some(&next) = self.owner.get(piece + 1) {
+            self.split.speeds.push((next, v));
             // The blocks in between have no duration.
             for b in block + 1..=next {
                 self.entered[b] = t;

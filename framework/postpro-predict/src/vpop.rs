@@ -83,6 +83,14 @@ pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -
     (track, owner, curves)
 }
 
+/// The tip speed block `i` asks for: its feed, or less in G1 timing (F on the axes). The feed
+/// itself where the two differ by rounding only (`L / (L / F)`): a cap one ulp under the next
+/// block's makes the interpolator brake for nothing.
+fn programmed_tip_feed(blocks: &Blocks, i: usize) -> f64 {
+    let (nominal, feed) = (blocks.nominal_tip_feed(i), blocks.feed[i]);
+    if (nominal - feed).abs() <= 1e-9 * feed { feed } else { nominal.max(1e-9) }
+}
+
 struct Builder<'a> {
     blocks: &'a Blocks,
     machine: &'a Machine,
@@ -116,7 +124,7 @@ impl<'a> Builder<'a> {
         let mut piece = Piece {
             length,
             // The tip speed the program asks for: the feed, or less in G1 timing (F on the axes).
-            velocity: if kind == BlockKind::Rapid { f64::INFINITY } else { blocks.nominal_tip_feed(i).max(1e-9) },
+            velocity: if kind == BlockKind::Rapid { f64::INFINITY } else { programmed_tip_feed(blocks, i) },
             acceleration: f64::INFINITY,
             jerk: f64::INFINITY,
             velocity_limit: if kind == BlockKind::Rapid { Limit::Rapid } else { Limit::Programmed },
@@ -177,7 +185,7 @@ impl<'a> Builder<'a> {
             // After a curve: the tip's direction changes within the tolerance's rounding.
             _ => f64::INFINITY,
         };
-        self.track.push(piece, i, corner);
+        self.track.push(piece, i, corner, blocks.junction_limit(self.track.last_block(), i));
         self.last_line = Some((i, length));
     }
 
@@ -195,6 +203,7 @@ impl<'a> Builder<'a> {
         }
         let (spline, poses, params) = (&run.curve, &run.poses, &run.params);
         let which = curves.splines.len();
+        let why = blocks.junction_limit(self.track.last_block(), start);
         let mut corner = match self.last_line {
             Some((previous, _)) if self.track.last_block() == Some(previous) => {
                 let tangent = poses.get(1).map_or(nalgebra::Vector3::zeros(), |p| p.tip - poses[0].tip);
@@ -228,7 +237,7 @@ impl<'a> Builder<'a> {
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
                 let piece = self.curve_piece(&mut cursor, kin, from, to, feed);
-                self.track.push(piece, block, corner);
+                self.track.push(piece, block, corner, why);
                 curves.segments.resize(self.track.len() - 1, Segment::Line);
                 curves.segments.push(Segment::Curve { spline: which, from });
                 corner = f64::INFINITY;

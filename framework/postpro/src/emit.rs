@@ -11,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use postpro_emit::{Dialect, EmitError, Mode, Options, builtin_template, dialect, write_program};
 
 use crate::job::{fail, prepare};
-use crate::predict::{self, PredictionArgs};
+use crate::predict::{self, MarkArgs, PredictionArgs};
 use crate::report;
 use crate::solve::{IktArgs, MachineArgs};
 
@@ -39,6 +39,8 @@ pub(crate) struct EmitArgs {
     mode: ModeArg,
     #[command(flatten)]
     prediction: PredictionArgs,
+    #[command(flatten)]
+    marks: MarkArgs,
     /// Do not predict the feed (no slowdown comments, no predicted cycle time in the header).
     #[arg(long)]
     no_predict: bool,
@@ -151,7 +153,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         output: &output,
         program_name,
         block_numbers: args.block_numbers,
-        prediction: (!args.no_predict).then_some(&args.prediction),
+        prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
     };
     write_job(&job, &writing, &stage)
 }
@@ -171,7 +173,7 @@ pub(crate) struct Writing<'a> {
     /// Number the blocks.
     pub(crate) block_numbers: bool,
     /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
-    pub(crate) prediction: Option<&'a PredictionArgs>,
+    pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
 }
 
 /// Predicts (unless told not to) and writes the program of a solved job, atomically; prints
@@ -188,15 +190,16 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
     };
     let (prediction, annotations) = match how.prediction {
         None => (None, Vec::new()),
-        Some(args) => {
+        Some((args, marking)) => {
             stage("predicting the feed");
             let predicted = predict::run(job, &program, args, false);
             for note in &predicted.notes {
                 let at = job.solved.steps[note.step].span.start as usize;
                 eprintln!("note: {}: prediction: {}", source.location(at), note.text);
             }
-            let annotations = predict::annotations(&predicted, machine, args.threshold());
-            let summary = predict::header(&predicted, args, mode, annotations.len());
+            let marks = predicted.marks(&marking.rules(args));
+            let annotations = predict::annotations(&predicted, &marks, machine);
+            let summary = predict::header(&predicted, args, mode, &marks, job);
             (Some(summary), annotations)
         }
     };

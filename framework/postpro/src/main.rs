@@ -7,6 +7,7 @@
 
 mod check;
 mod emit;
+mod html;
 mod job;
 mod machines;
 mod orient;

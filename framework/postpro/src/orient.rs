@@ -19,7 +19,7 @@ use postpro_orient::{Candidate, JointBoxes, JointMap, Level, Path, Setup};
 
 use crate::emit::{ModeArg, Writing, write_job};
 use crate::job::{Job, fail, prepare};
-use crate::predict::{self, PredictionArgs};
+use crate::predict::{self, MarkArgs, PredictionArgs};
 use crate::report;
 use crate::solve::{IktArgs, MachineArgs};
 
@@ -44,6 +44,9 @@ pub(crate) struct OrientArgs {
     mode: ModeArg,
     #[command(flatten)]
     prediction: PredictionArgs,
+    /// The slowdowns `--apply` marks.
+    #[command(flatten)]
+    marks: MarkArgs,
     /// Print JSON instead of the table.
     #[arg(long)]
     json: bool,
@@ -288,7 +291,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             output: out,
             program_name: name,
             block_numbers: false,
-            prediction: Some(&args.prediction),
+            prediction: Some((&args.prediction, &args.marks)),
         };
         return write_job(&oriented, &writing, &|_| {});
     }

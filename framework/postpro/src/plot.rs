@@ -2,7 +2,10 @@
 //! programmed and the predicted feed along the path length, the predicted feed coloured by what
 //! limits it and the relative tool/surface feed (rebuilt through the forward kinematics) as a
 //! thin line; below, every axis's velocity along the same path length, linear axes in mm/min on
-//! the left scale and rotary axes in deg/min on the right one.
+//! the left scale and rotary axes in deg/min on the right one. The caller chooses the path
+//! length (the command leaves rapids out: each is a dotted tick where the feed path goes on); the
+//! feed panel names the operations where they start and numbers the worst slowdowns as the
+//! program's comments do.
 //!
 //! Any number of samples: each series is first reduced to the drawing's resolution (per pixel
 //! column its minimum and maximum, in the order they occur; for the predicted feed the limiter
@@ -46,6 +49,12 @@ pub(crate) struct Report {
     pub(crate) limiter_names: Vec<String>,
     /// The velocity of every axis at each sample.
     pub(crate) axes: Vec<AxisSeries>,
+    /// Where rapids were left out of the path (mm).
+    pub(crate) rapids: Vec<f64>,
+    /// Where each operation starts (mm) and its name.
+    pub(crate) operations: Vec<(f64, String)>,
+    /// The slowdowns to number: path length (mm), feed (mm/min) and number.
+    pub(crate) marks: Vec<(f64, f64, usize)>,
 }
 
 /// One axis's velocity along the path.
@@ -118,6 +127,10 @@ const GAP: u32 = 4;
 
 /// The font family named in the SVG; the viewer picks the font.
 const FONT: &str = "sans-serif";
+// Colours of the rapid ticks, the operation lines and names, the slowdown numbers.
+const RAPID: RGBColor = RGBColor(120, 120, 120);
+const OPERATION: RGBColor = RGBColor(60, 60, 160);
+const MARK: RGBColor = RGBColor(200, 0, 0);
 // Colours of the grid, the programmed and relative feeds, the subtitle.
 const GRID_BOLD: RGBColor = RGBColor(222, 222, 222);
 const GRID_LIGHT: RGBColor = RGBColor(244, 244, 244);
@@ -402,16 +415,63 @@ fn draw_feeds(area: &Area<'_>, legend: &Area<'_>, report: &Report, x_range: &Ran
         let relative = columns.polyline(path, &reduce(path, relative, &columns));
         draw_line(&mut chart, relative, RELATIVE.mix(0.7), 1)?;
     }
+    draw_landmarks(&mut chart, report)?;
 
     let mut entries = vec![Entry::Heading("Feed".into()), Entry::Dashed("programmed".into(), PROGRAMMED.into(), 2)];
     if report.relative.is_some() {
         entries.push(Entry::Line("relative (forward kin.)".into(), RELATIVE.mix(0.7), 1));
+    }
+    if !report.rapids.is_empty() {
+        entries.push(Entry::Dashed("rapid (left out)".into(), RAPID.into(), 1));
+    }
+    if !report.operations.is_empty() {
+        entries.push(Entry::Line("operation start".into(), OPERATION.into(), 1));
+    }
+    if !report.marks.is_empty() {
+        entries.push(Entry::Line("#N slowdown marked".into(), MARK.into(), 2));
     }
     entries.push(Entry::Heading("Predicted, limited by".into()));
     for (index, name) in report.limiter_names.iter().enumerate().filter(|(i, _)| occurs[*i]) {
         entries.push(Entry::Line(name.clone(), colours[index].into(), 3));
     }
     draw_legend(legend, &entries)
+}
+
+/// The rapid ticks, the operations' starts and names, the slowdowns' numbers on the feed panel.
+fn draw_landmarks(chart: &mut Chart<'_, '_>, report: &Report) -> Result<(), PlotError> {
+    let (x, y) = (chart.x_range(), chart.y_range());
+    let inside = |v: f64| v.is_finite() && v >= x.start && v <= x.end;
+    let area = chart.plotting_area();
+    for &at in report.rapids.iter().filter(|v| inside(**v)) {
+        let tick = DashedPathElement::new(vec![(at, y.start), (at, y.end)], 3, 3, RAPID.stroke_width(1));
+        area.draw(&tick).map_err(draw_error)?;
+    }
+    let name_style = (FONT, 13).into_font().color(&OPERATION).pos(Pos::new(HPos::Left, VPos::Top));
+    let top = y.end - (y.end - y.start) * 0.01;
+    // An operation that starts before the first sample drawn (with a rapid) is named where the
+    // path starts.
+    for (at, name) in report.operations.iter().map(|(v, n)| (v.max(x.start), n)).filter(|(v, _)| inside(*v)) {
+        area.draw(&PathElement::new(vec![(at, y.start), (at, y.end)], OPERATION.stroke_width(1)))
+            .map_err(draw_error)?;
+        let label: String = name.chars().take(LEGEND_CHARS).collect();
+        area.draw(&Text::new(format!(" {label}"), (at, top), name_style.clone())).map_err(draw_error)?;
+    }
+    // Each number on a white tag just above its circle, so the lines under it do not blur it.
+    let number_style =
+        (FONT, 14).into_font().style(FontStyle::Bold).color(&MARK).pos(Pos::new(HPos::Center, VPos::Center));
+    let (width, height) = area.dim_in_pixel();
+    let per_pixel = ((x.end - x.start) / f64::from(width.max(1)), (y.end - y.start) / f64::from(height.max(1)));
+    for &(at, feed, number) in report.marks.iter().filter(|(v, f, _)| inside(*v) && f.is_finite()) {
+        let label = format!("#{number}");
+        let (half_width, half_height) = ((label.len() as f64 * 4.5 + 3.0) * per_pixel.0, 9.0 * per_pixel.1);
+        let centre = (at, feed + 4.0 * per_pixel.1 + 2.0 * half_height);
+        let tag = [(centre.0 - half_width, centre.1 - half_height), (centre.0 + half_width, centre.1 + half_height)];
+        area.draw(&Rectangle::new(tag, WHITE.mix(0.85).filled())).map_err(draw_error)?;
+        area.draw(&Rectangle::new(tag, MARK.stroke_width(1))).map_err(draw_error)?;
+        area.draw(&Circle::new((at, feed), 4, MARK.stroke_width(2))).map_err(draw_error)?;
+        area.draw(&Text::new(label, centre, number_style.clone())).map_err(draw_error)?;
+    }
+    Ok(())
 }
 
 /// The bottom panel: every axis's velocity, rotary axes on the right scale when there are
@@ -693,6 +753,9 @@ mod tests {
                 .iter()
                 .map(|l| AxisSeries { letter: l.to_string(), rotary: *l == "A" || *l == "C", velocity: vec![] })
                 .collect(),
+            rapids: vec![200.0],
+            operations: vec![(0.0, "ROUGH".into()), (200.0, "FINISH".into())],
+            marks: vec![(80.0, 2000.0, 1), (240.0, 2000.0, 2)],
         };
         let corners = [80.0, 160.0, 240.0, 320.0];
         for i in 0..samples {
@@ -776,6 +839,10 @@ mod tests {
             assert!(has(axis), "{axis}");
         }
         assert!(has("relative (forward kin.)"));
+        // The rapids left out, the operations named where they start, the slowdowns numbered.
+        for text in ["rapid (left out)", "operation start", "#N slowdown marked", "ROUGH", "FINISH", "#1", "#2"] {
+            assert!(has(text), "{text} in {texts:?}");
+        }
     }
 
     #[test]
@@ -797,6 +864,9 @@ mod tests {
             limiter: vec![],
             limiter_names: vec![],
             axes: vec![],
+            rapids: vec![],
+            operations: vec![],
+            marks: vec![],
         };
         assert!(matches!(render(&report), Err(PlotError::Empty)));
         let mut report = synthetic(10);

@@ -1,18 +1,19 @@
 //! `postpro predict FILE.cl --machine NAME`: the feed the machine will really reach. A table in
-//! the terminal (totals, time lost by cause, the worst slowdowns, `--blocks` for every block),
-//! the samples and per-block results as CSV (`--csv`) or JSON (`--json`), and an SVG report
-//! (`--plot`). The main job uses the same prediction to mark slowdowns in the NC program.
+//! the terminal (totals, time lost by cause, per operation, the worst slowdowns marked,
+//! `--blocks` for every block), the samples and per-block results as CSV (`--csv`) or JSON
+//! (`--json`), an SVG report (`--plot`) and an HTML report (`--report`). The main job uses the
+//! same prediction to mark slowdowns in the NC program.
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use postpro_emit::{Annotation, Mode};
 use postpro_machine::model::{AxisKind, Machine};
-use postpro_predict::{BlockKind, Limit, Planner, Prediction, Timing, describe};
+use postpro_predict::{BlockKind, Cause, Limit, Mark, MarkRules, Planner, Prediction, Timing, describe};
 
 use crate::emit::ModeArg;
+use crate::html;
 use crate::job::{Job, fail, prepare};
 use crate::plot;
 use crate::report;
@@ -42,6 +43,32 @@ impl PredictionArgs {
             PlannerArg::InverseTime => Planner::InverseTime,
             PlannerArg::Vpop => Planner::Vpop,
         }
+    }
+}
+
+/// Which slowdowns are marked, shared by `predict` and the main job.
+#[derive(Debug, clap::Args)]
+pub(crate) struct MarkArgs {
+    /// A run of blocks below the threshold is marked when it loses at least this many seconds,
+    /// the acceleration out of and the braking into exact stops aside.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.05, value_parser = seconds)]
+    min_loss: f64,
+    /// At most this many marks per operation, the worst kept.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    max_marks: usize,
+}
+
+impl MarkArgs {
+    /// The rules, with the prediction's threshold.
+    pub(crate) fn rules(&self, prediction: &PredictionArgs) -> MarkRules {
+        MarkRules { threshold: prediction.threshold(), min_loss: self.min_loss, max_per_operation: self.max_marks }
+    }
+}
+
+fn seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v >= 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a number of seconds (0 or more), found `{s}`")),
     }
 }
 
@@ -75,7 +102,10 @@ pub(crate) struct PredictArgs {
     mode: ModeArg,
     #[command(flatten)]
     prediction: PredictionArgs,
-    /// List every block (default: the totals, the time lost by cause and the worst slowdowns).
+    #[command(flatten)]
+    marks: MarkArgs,
+    /// List every block (default: the totals, the time lost by cause and per operation, and the
+    /// worst slowdowns marked).
     #[arg(long)]
     blocks: bool,
     /// Write the samples as CSV to FILE and the per-block results beside it (`FILE` with the
@@ -89,6 +119,10 @@ pub(crate) struct PredictArgs {
     /// the axis velocities, as SVG.
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
+    /// Write an HTML report: one self-contained file with the plot, the time lost by cause and
+    /// per operation, and the slowdowns marked with their CL lines.
+    #[arg(long, value_name = "FILE.html")]
+    report: Option<PathBuf>,
     /// Sampling period in ms (default: the CNC's interpolation cycle).
     #[arg(long, value_name = "MS", allow_negative_numbers = true)]
     period: Option<f64>,
@@ -148,21 +182,35 @@ pub(crate) fn run_solved(
     Ok(predict_program(&program, kin, &options))
 }
 
-/// The slowdown comments for the NC program: one per run of blocks below the threshold.
-pub(crate) fn annotations(prediction: &Prediction, machine: &Machine, threshold: f64) -> Vec<Annotation> {
-    prediction
-        .slowdowns(threshold)
-        .into_iter()
-        .map(|s| {
-            let blocks = s.last - s.first + 1;
-            let over = if blocks > 1 { format!(" over {blocks} blocks") } else { String::new() };
-            let percent = (s.ratio * 100.0).floor();
-            Annotation {
-                step: prediction.blocks[s.first].step,
-                text: format!("slowdown {percent}% of F{over}, {}", describe(s.limit, machine)),
-            }
+/// What a mark says after `slowdown #N: `: `38% of F over 12 blocks, C jerk, 0.42 s lost`.
+pub(crate) fn mark_text(mark: &Mark, machine: &Machine) -> String {
+    let over = if mark.blocks > 1 { format!(" over {} blocks", mark.blocks) } else { String::new() };
+    let percent = (mark.ratio * 100.0).floor();
+    format!("{percent}% of F{over}, {}, {:.2} s lost", describe(mark.cause, machine), mark.lost)
+}
+
+/// The slowdown comments for the NC program: one before the first block of each mark.
+pub(crate) fn annotations(prediction: &Prediction, marks: &[Mark], machine: &Machine) -> Vec<Annotation> {
+    marks
+        .iter()
+        .map(|m| Annotation {
+            step: prediction.blocks[m.first].step,
+            text: format!("slowdown #{}: {}", m.number, mark_text(m, machine)),
         })
         .collect()
+}
+
+/// The worst marks, the worst first (at most `count`).
+pub(crate) fn worst(marks: &[Mark], count: usize) -> Vec<&Mark> {
+    let mut worst: Vec<&Mark> = marks.iter().collect();
+    worst.sort_by(|a, b| b.lost.total_cmp(&a.lost).then(a.number.cmp(&b.number)));
+    worst.truncate(count);
+    worst
+}
+
+/// The name an operation is shown with.
+pub(crate) fn operation_name(name: &str) -> &str {
+    if name.is_empty() { "(unnamed)" } else { name }
 }
 
 /// The header summary of the NC program.
@@ -170,16 +218,43 @@ pub(crate) fn header(
     prediction: &Prediction,
     args: &PredictionArgs,
     mode: Mode,
-    count: usize,
+    marks: &[Mark],
+    job: &Job,
 ) -> postpro_emit::Prediction {
     let totals = prediction.totals();
+    let machine = &job.machine;
     postpro_emit::Prediction {
         cycle_time: totals.cycle_time,
-        time_lost: totals.time_lost.max(0.0),
+        time_lost: totals.time_lost,
         threshold: args.threshold(),
         share_below: totals.share_below(),
         planner: planner_name(effective(args.planner(), mode)).to_string(),
-        slowdowns: count,
+        slowdowns: marks.len(),
+        operations: prediction
+            .operations
+            .iter()
+            .map(|o| postpro_emit::OperationPrediction {
+                // A name is one comment's worth: cut where a line could grow too long.
+                name: o.name.chars().take(64).collect(),
+                cycle_time: o.cycle_time,
+                programmed_time: o.programmed_time,
+                time_lost: o.time_lost,
+                cause: describe(o.main_cause(), machine),
+            })
+            .collect(),
+        worst: worst(marks, 5)
+            .into_iter()
+            .map(|m| {
+                let step = prediction.blocks[m.first].step;
+                postpro_emit::MarkedSlowdown {
+                    number: m.number,
+                    step,
+                    line: line(job, step),
+                    time_lost: m.lost,
+                    text: mark_text(m, machine),
+                }
+            })
+            .collect(),
     }
 }
 
@@ -211,7 +286,7 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         Ok(job) => job,
         Err(code) => return code,
     };
-    let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some();
+    let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some() || args.report.is_some();
     let mode = args.mode.mode();
     let planner = effective(args.prediction.planner(), mode);
     let program = match job.motion(mode, crate::job::machine_dialect(&job.machine)) {
@@ -234,6 +309,8 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         );
     }
     let machine = &job.machine;
+    let marks = prediction.marks(&args.marks.rules(&args.prediction));
+    let run = Run { prediction: &prediction, marks: &marks, machine, job: &job, args, planner };
     // Every export is made first, then all are written together: a failure leaves none.
     let mut exports: Vec<(PathBuf, String)> = Vec::new();
     if let Some(path) = &args.csv {
@@ -241,18 +318,38 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         exports.push((path.with_extension("blocks.csv"), blocks_csv(&prediction, machine, &job)));
     }
     if let Some(path) = &args.json {
-        exports.push((path.clone(), json(&prediction, machine, &job, planner)));
+        exports.push((path.clone(), json(&run)));
     }
-    if let Some(path) = &args.plot {
-        match plot::render(&plot_report(&prediction, machine, &job)) {
-            Ok(svg) => exports.push((path.clone(), svg)),
-            Err(e) => return fail(&format!("error: cannot draw {}: {e}\n", path.display()), 1),
-        }
+    let svg = match (&args.plot, &args.report) {
+        (None, None) => None,
+        (plot, report) => match plot::render(&plot_report(&run)) {
+            Ok(svg) => Some(svg),
+            Err(e) => {
+                let path = plot.as_ref().or(report.as_ref()).map(|p| p.display().to_string()).unwrap_or_default();
+                return fail(&format!("error: cannot draw {path}: {e}\n"), 1);
+            }
+        },
+    };
+    if let (Some(path), Some(svg)) = (&args.plot, &svg) {
+        exports.push((path.clone(), svg.clone()));
+    }
+    if let (Some(path), Some(svg)) = (&args.report, &svg) {
+        exports.push((path.clone(), html::report(&html_report(&run, svg))));
     }
     if let Err(message) = write_all(&exports) {
         return fail(&message, 1);
     }
-    report::print_stdout(&table(&prediction, machine, &job, args, planner))
+    report::print_stdout(&table(&run))
+}
+
+/// One prediction with what the outputs need to describe it.
+struct Run<'a> {
+    prediction: &'a Prediction,
+    marks: &'a [Mark],
+    machine: &'a Machine,
+    job: &'a Job,
+    args: &'a PredictArgs,
+    planner: Planner,
 }
 
 /// Writes every `(path, text)`: each to a temporary file beside its target, then, once all are
@@ -303,7 +400,23 @@ fn kind_name(kind: BlockKind) -> &'static str {
     }
 }
 
-fn table(prediction: &Prediction, machine: &Machine, job: &Job, args: &PredictArgs, planner: Planner) -> String {
+/// The causes worth a row: those under 5 ms that are no block's main cause are left out.
+fn shown_causes(causes: &[Cause]) -> impl Iterator<Item = &Cause> {
+    causes.iter().filter(|c| c.blocks > 0 || c.seconds.abs() >= 0.005)
+}
+
+/// The time lost by cause as table rows (cause, seconds, blocks: those it is the main cause of),
+/// then their total.
+fn cause_rows(out: &mut String, causes: &[Cause], machine: &Machine) {
+    for c in shown_causes(causes) {
+        let _ = writeln!(out, "  {:<24} {:>9.2} s  {:>8} blocks", describe(c.limit, machine), c.seconds, c.blocks);
+    }
+    let _ = writeln!(out, "  {:<24} {:>9.2} s", "total", causes.iter().map(|c| c.seconds).sum::<f64>());
+}
+
+/// The program's figures as a terminal table.
+fn table(run: &Run<'_>) -> String {
+    let Run { prediction, marks, machine, job, args, planner } = *run;
     let totals = prediction.totals();
     let mut out = String::new();
     let threshold = args.prediction.threshold;
@@ -325,67 +438,74 @@ fn table(prediction: &Prediction, machine: &Machine, job: &Job, args: &PredictAr
         totals.share_below() * 100.0,
         totals.feed_length
     );
-    // Time lost by cause: each feed block's time beyond its programmed one, to its limit.
-    let mut causes: BTreeMap<String, (usize, f64)> = BTreeMap::new();
-    for b in prediction.blocks.iter().filter(|b| b.kind == BlockKind::Feed && b.programmed > 0.0) {
-        let lost = b.time - b.length / b.programmed * 60.0;
-        if lost > 0.0 && b.limit != Limit::Programmed {
-            let e = causes.entry(describe(b.limit, machine)).or_default();
-            e.0 += 1;
-            e.1 += lost;
-        }
-    }
+    let causes = prediction.causes();
     if !causes.is_empty() {
-        let mut causes: Vec<_> = causes.into_iter().collect();
-        causes.sort_by(|a, b| b.1.1.total_cmp(&a.1.1));
-        let _ = writeln!(out, "\ntime lost by cause (feed blocks, where their feed is lowest)");
-        for (cause, (count, lost)) in causes {
-            let _ = writeln!(out, "  {cause:<24} {lost:>9.2} s  {count:>8} blocks");
+        let _ = writeln!(out, "\ntime lost by cause            seconds  main cause of");
+        cause_rows(&mut out, &causes, machine);
+    }
+    if !prediction.operations.is_empty() {
+        let _ = writeln!(out, "\n  operation                  predicted s  programmed s     lost s  mostly");
+        for o in &prediction.operations {
+            let _ = writeln!(
+                out,
+                "  {:<24} {:>13.2} {:>13.2} {:>10.2}  {}",
+                operation_name(&o.name),
+                o.cycle_time,
+                o.programmed_time,
+                o.time_lost,
+                describe(o.main_cause(), machine)
+            );
         }
     }
     for note in &prediction.notes {
         let _ = writeln!(out, "note: line {}: {}", line(job, note.step), note.text);
     }
-    let header = "\n  block    line  kind            length mm  F mm/min    min mm/min  mean mm/min   time s  limit";
-    let row = |out: &mut String, i: usize| {
-        let b = &prediction.blocks[i];
+    if args.blocks {
         let _ = writeln!(
             out,
-            "{:>7} {:>7}  {:<14} {:>10.3} {:>9.0} {:>12.0} {:>12.0} {:>8.4}  {}",
-            i + 1,
-            line(job, b.step),
-            kind_name(b.kind),
-            b.length,
-            b.programmed,
-            b.min_feed,
-            b.mean_feed,
-            b.time,
-            describe(b.limit, machine)
+            "\n  block    line  kind            length mm  F mm/min    min mm/min  mean mm/min   time s   lost s  limit"
         );
-    };
-    if args.blocks {
-        let _ = writeln!(out, "{header}");
-        for i in 0..prediction.blocks.len() {
-            row(&mut out, i);
-        }
-    } else {
-        let slowdowns = prediction.slowdowns(args.prediction.threshold());
-        if !slowdowns.is_empty() {
-            let mut worst: Vec<_> = slowdowns.iter().collect();
-            worst.sort_by(|a, b| a.ratio.total_cmp(&b.ratio));
+        for (i, b) in prediction.blocks.iter().enumerate() {
             let _ = writeln!(
                 out,
-                "\n{} slowdowns below {threshold}% of F; the worst {} (--blocks lists every block):",
-                slowdowns.len(),
-                worst.len().min(10)
+                "{:>7} {:>7}  {:<14} {:>10.3} {:>9.0} {:>12.0} {:>12.0} {:>8.4} {:>8.4}  {}",
+                i + 1,
+                line(job, b.step),
+                kind_name(b.kind),
+                b.length,
+                b.programmed,
+                b.min_feed,
+                b.mean_feed,
+                b.time,
+                b.lost,
+                describe(b.limit, machine)
             );
-            let _ = writeln!(out, "{header}");
-            for s in worst.iter().take(10) {
-                let lowest = (s.first..=s.last)
-                    .min_by(|&a, &b| prediction.blocks[a].min_ratio().total_cmp(&prediction.blocks[b].min_ratio()))
-                    .unwrap_or(s.first);
-                row(&mut out, lowest);
-            }
+        }
+    } else if !marks.is_empty() {
+        let rules = args.marks.rules(&args.prediction);
+        let worst = worst(marks, 10);
+        let _ = writeln!(
+            out,
+            "\n{} slowdowns marked (below {threshold}% of F and {} s lost, exact stops, plunges and retracts aside; \
+             at most {} per operation); the worst {}:",
+            marks.len(),
+            rules.min_loss,
+            rules.max_per_operation,
+            worst.len()
+        );
+        let _ = writeln!(out, "   mark     line  blocks  lowest   lost s  cause                     operation");
+        for m in worst {
+            let _ = writeln!(
+                out,
+                "{:>7} {:>8} {:>7} {:>6}% {:>8.2}  {:<24}  {}",
+                format!("#{}", m.number),
+                line(job, prediction.blocks[m.first].step),
+                m.blocks,
+                (m.ratio * 100.0).floor(),
+                m.lost,
+                describe(m.cause, machine),
+                operation_name(&prediction.operations[m.operation].name)
+            );
         }
     }
     out
@@ -445,12 +565,14 @@ fn samples_csv(prediction: &Prediction, machine: &Machine) -> String {
 }
 
 fn blocks_csv(prediction: &Prediction, machine: &Machine, job: &Job) -> String {
-    let mut out =
-        String::from("block,line,kind,length_mm,programmed_mm_min,min_feed_mm_min,mean_feed_mm_min,time_s,limit\n");
+    let mut out = String::from(
+        "block,line,kind,length_mm,programmed_mm_min,min_feed_mm_min,mean_feed_mm_min,time_s,limit,time_lost_s,\
+         stop_lost_s,cause,operation\n",
+    );
     for (i, b) in prediction.blocks.iter().enumerate() {
         let _ = writeln!(
             out,
-            "{},{},{},{:.4},{:.1},{:.2},{:.2},{:.6},{}",
+            "{},{},{},{:.4},{:.1},{:.2},{:.2},{:.6},{},{:.6},{:.6},{},{}",
             i + 1,
             line(job, b.step),
             kind_name(b.kind),
@@ -459,14 +581,31 @@ fn blocks_csv(prediction: &Prediction, machine: &Machine, job: &Job) -> String {
             b.min_feed,
             b.mean_feed,
             b.time,
-            describe(b.limit, machine)
+            describe(b.limit, machine),
+            b.lost,
+            b.stop_lost,
+            describe(b.cause, machine),
+            operation_of(prediction, i) + 1
         );
     }
     out
 }
 
-fn json(prediction: &Prediction, machine: &Machine, job: &Job, planner: Planner) -> String {
+/// The operation of block `i` (index into the prediction's operations).
+fn operation_of(prediction: &Prediction, i: usize) -> usize {
+    prediction.operations.iter().position(|o| o.first <= i && i <= o.last).unwrap_or(0)
+}
+
+fn causes_json(causes: &[Cause], machine: &Machine) -> Vec<serde_json::Value> {
+    causes
+        .iter()
+        .map(|c| serde_json::json!({ "cause": describe(c.limit, machine), "time_lost_s": c.seconds, "blocks": c.blocks }))
+        .collect()
+}
+
+fn json(run: &Run<'_>) -> String {
     use serde_json::{Value, json};
+    let Run { prediction, marks, machine, job, planner, .. } = *run;
     let t = prediction.totals();
     let blocks: Vec<Value> = prediction
         .blocks
@@ -476,7 +615,33 @@ fn json(prediction: &Prediction, machine: &Machine, job: &Job, planner: Planner)
             json!({
                 "block": i + 1, "line": line(job, b.step), "kind": kind_name(b.kind), "length_mm": b.length,
                 "programmed_mm_min": b.programmed, "min_feed_mm_min": b.min_feed, "mean_feed_mm_min": b.mean_feed,
-                "time_s": b.time, "limit": describe(b.limit, machine),
+                "time_s": b.time, "limit": describe(b.limit, machine), "time_lost_s": b.lost,
+                "stop_lost_s": b.stop_lost, "cause": describe(b.cause, machine),
+                "min_feed_between_stops_mm_min": b.min_feed_between_stops,
+                "operation": operation_of(prediction, i) + 1,
+            })
+        })
+        .collect();
+    let operations: Vec<Value> = prediction
+        .operations
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            json!({
+                "operation": i + 1, "name": o.name, "first_block": o.first + 1, "last_block": o.last + 1,
+                "cycle_time_s": o.cycle_time, "programmed_time_s": o.programmed_time, "time_lost_s": o.time_lost,
+                "cause": describe(o.main_cause(), machine), "causes": causes_json(&o.causes, machine),
+            })
+        })
+        .collect();
+    let marks: Vec<Value> = marks
+        .iter()
+        .map(|m| {
+            json!({
+                "number": m.number, "first_block": m.first + 1, "last_block": m.last + 1,
+                "line": line(job, prediction.blocks[m.first].step), "blocks": m.blocks, "lowest_share": m.ratio,
+                "cause": describe(m.cause, machine), "time_lost_s": m.lost, "operation": m.operation + 1,
+                "text": format!("slowdown #{}: {}", m.number, mark_text(m, machine)),
             })
         })
         .collect();
@@ -508,8 +673,10 @@ fn json(prediction: &Prediction, machine: &Machine, job: &Job, planner: Planner)
         "totals": {
             "cycle_time_s": t.cycle_time, "programmed_time_s": t.programmed_time, "time_lost_s": t.time_lost,
             "feed_length_mm": t.feed_length, "length_below_mm": t.length_below, "threshold": t.threshold,
-            "share_below": t.share_below(),
+            "share_below": t.share_below(), "causes": causes_json(&prediction.causes(), machine),
         },
+        "operations": operations,
+        "marks": marks,
         "notes": prediction.notes.iter().map(|n| json!({ "line": line(job, n.step), "text": n.text })).collect::<Vec<_>>(),
         "blocks": blocks,
         "samples": samples,
@@ -519,19 +686,62 @@ fn json(prediction: &Prediction, machine: &Machine, job: &Job, planner: Planner)
     text
 }
 
-fn plot_report(prediction: &Prediction, machine: &Machine, job: &Job) -> plot::Report {
-    let empty = postpro_predict::Samples::default();
-    let samples = prediction.samples.as_ref().unwrap_or(&empty);
-    let feed_only = |column: &Vec<f64>| -> Vec<f64> {
-        column
-            .iter()
-            .zip(&samples.block)
-            .map(|(v, b)| if prediction.blocks[*b as usize].kind == BlockKind::Rapid { f64::NAN } else { *v })
-            .collect()
-    };
-    let names = limit_names(prediction);
+/// The plot: along the feed path (rapids take no room: each is a tick where it was left out),
+/// the operations where they start, the worst slowdowns with their numbers.
+fn plot_report(run: &Run<'_>) -> plot::Report {
+    let Run { prediction, marks, machine, job, .. } = *run;
     let empty = postpro_predict::Samples::default();
     let s = prediction.samples.as_ref().unwrap_or(&empty);
+    // The feed path length at the start of each block: rapids left out.
+    let mut feed_start = Vec::with_capacity(prediction.blocks.len());
+    let mut x = 0.0;
+    for b in &prediction.blocks {
+        feed_start.push(x);
+        if b.kind != BlockKind::Rapid {
+            x += b.length;
+        }
+    }
+    let path_start: Vec<f64> = prediction
+        .blocks
+        .iter()
+        .scan(0.0, |at, b| {
+            let start = *at;
+            *at += b.length;
+            Some(start)
+        })
+        .collect();
+    let rapid = |r: usize| prediction.blocks[s.block[r] as usize].kind == BlockKind::Rapid;
+    let path_mm: Vec<f64> = (0..s.len())
+        .map(|r| {
+            let b = s.block[r] as usize;
+            if rapid(r) { f64::NAN } else { feed_start[b] + (s.path[r] - path_start[b]) }
+        })
+        .collect();
+    // A tick per run of rapids, where the feed path goes on.
+    let mut rapids = Vec::new();
+    for (i, b) in prediction.blocks.iter().enumerate() {
+        if b.kind == BlockKind::Rapid && (i == 0 || prediction.blocks[i - 1].kind != BlockKind::Rapid) {
+            rapids.push(feed_start[i]);
+        }
+    }
+    let operations =
+        prediction.operations.iter().map(|o| (feed_start[o.first], operation_name(&o.name).to_string())).collect();
+    // The worst marks at their lowest feed.
+    let marked = worst(marks, 10)
+        .into_iter()
+        .map(|m| {
+            let lowest = (m.first..=m.last)
+                .filter(|&i| prediction.blocks[i].kind == BlockKind::Feed)
+                .min_by(|&a, &b| {
+                    let ratio = |i: usize| prediction.blocks[i].min_ratio_between_stops();
+                    ratio(a).total_cmp(&ratio(b))
+                })
+                .unwrap_or(m.first);
+            let b = &prediction.blocks[lowest];
+            (feed_start[lowest] + b.length / 2.0, b.min_feed_between_stops, m.number)
+        })
+        .collect();
+    let names = limit_names(prediction);
     let n = s.axes;
     let axes = machine
         .axes
@@ -547,19 +757,77 @@ fn plot_report(prediction: &Prediction, machine: &Machine, job: &Job) -> plot::R
     plot::Report {
         title: format!("{} on {}", job.source.name(), machine.name),
         subtitle: format!(
-            "predicted cycle time {:.2} s ({:.2} s at the programmed feed), {:.1} % of the feed path below {:.0} %",
+            "predicted cycle time {:.2} s ({:.2} s at the programmed feed, {:.2} s lost), {:.1} % of the feed path \
+             below {:.0} %",
             t.cycle_time,
             t.programmed_time,
+            t.time_lost,
             t.share_below() * 100.0,
             t.threshold * 100.0
         ),
-        path_mm: s.path.clone(),
-        // Rapids would squash the feeds to the bottom of the chart: left out of the feed panel.
-        programmed: feed_only(&s.programmed),
-        predicted: feed_only(&s.feed),
-        relative: Some(feed_only(&s.relative_feed)),
+        path_mm,
+        programmed: s.programmed.clone(),
+        predicted: s.feed.clone(),
+        relative: Some(s.relative_feed.clone()),
         limiter: s.limit.iter().map(|l| names.iter().position(|x| x == l).unwrap_or(0) as u16).collect(),
         limiter_names: names.iter().map(|l| describe(*l, machine)).collect(),
         axes,
+        rapids,
+        operations,
+        marks: marked,
+    }
+}
+
+/// The HTML report's content.
+fn html_report(run: &Run<'_>, svg: &str) -> html::Report {
+    let Run { prediction, marks, machine, job, args, planner } = *run;
+    let t = prediction.totals();
+    let rules = args.marks.rules(&args.prediction);
+    html::Report {
+        title: format!("{} on {}", job.source.name(), machine.name),
+        setup: format!(
+            "{} planner, {} mode, {} blocks; a slowdown is marked below {}% of F with at least {} s lost, exact \
+             stops, plunges and retracts aside, at most {} per operation",
+            planner_name(planner),
+            args.mode.mode().name(),
+            prediction.blocks.len(),
+            args.prediction.threshold,
+            rules.min_loss,
+            rules.max_per_operation
+        ),
+        totals: vec![
+            ("predicted cycle time".into(), format!("{:.2} s", t.cycle_time)),
+            ("at the programmed feed".into(), format!("{:.2} s", t.programmed_time)),
+            ("lost to slowdowns".into(), format!("{:.2} s", t.time_lost)),
+            (
+                format!("feed path below {}%", args.prediction.threshold),
+                format!("{:.1} % of {:.1} mm", t.share_below() * 100.0, t.feed_length),
+            ),
+            ("slowdowns marked".into(), marks.len().to_string()),
+        ],
+        causes: shown_causes(&prediction.causes()).map(|c| (describe(c.limit, machine), c.seconds, c.blocks)).collect(),
+        operations: prediction
+            .operations
+            .iter()
+            .map(|o| html::OperationRow {
+                name: operation_name(&o.name).to_string(),
+                cycle_time: o.cycle_time,
+                programmed_time: o.programmed_time,
+                time_lost: o.time_lost,
+                cause: describe(o.main_cause(), machine),
+            })
+            .collect(),
+        marks: worst(marks, marks.len())
+            .into_iter()
+            .map(|m| html::MarkRow {
+                number: m.number,
+                line: line(job, prediction.blocks[m.first].step),
+                operation: operation_name(&prediction.operations[m.operation].name).to_string(),
+                text: mark_text(m, machine),
+                time_lost: m.lost,
+            })
+            .collect(),
+        notes: prediction.notes.iter().map(|n| format!("line {}: {}", line(job, n.step), n.text)).collect(),
+        svg: svg.to_string(),
     }
 }

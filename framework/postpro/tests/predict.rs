@@ -54,19 +54,56 @@ fn table(text: &str) -> Table {
     }
 }
 
-/// The block rows of a table: the lines under the column header.
-fn rows(text: &str) -> Vec<&str> {
-    text.lines().skip_while(|l| !l.starts_with("  block    line  kind")).skip(1).take_while(|l| !l.is_empty()).collect()
+/// The rows under the line that starts with `header`, up to the first empty line.
+fn section<'a>(text: &'a str, header: &str) -> Vec<&'a str> {
+    text.lines().skip_while(|l| !l.starts_with(header)).skip(1).take_while(|l| !l.is_empty()).collect()
 }
 
-/// The columns of a block row: block, line, kind, length, F, min, mean, time, limit (which may
-/// hold a space).
+/// The block rows of `--blocks`.
+fn rows(text: &str) -> Vec<&str> {
+    section(text, "  block    line  kind")
+}
+
+/// The columns of a block row: block, line, kind, length, F, min, mean, time, lost, limit (which
+/// may hold a space).
 fn columns(row: &str) -> Vec<String> {
     let mut fields: Vec<String> = row.split_whitespace().map(str::to_string).collect();
-    let limit = fields.split_off(8.min(fields.len())).join(" ");
+    let limit = fields.split_off(9.min(fields.len())).join(" ");
     fields.push(limit);
-    assert_eq!(fields.len(), 9, "a block row has 9 columns: `{row}`");
+    assert_eq!(fields.len(), 10, "a block row has 10 columns: `{row}`");
     fields
+}
+
+/// The rows of the time lost by cause: (cause, seconds, blocks), and the total.
+fn causes(text: &str) -> (Vec<(String, f64, usize)>, f64) {
+    let mut rows = Vec::new();
+    let mut total = None;
+    for row in section(text, "time lost by cause") {
+        let (name, rest) = row.trim_start().split_at(24);
+        let fields: Vec<&str> = rest.split_whitespace().collect();
+        match name.trim() {
+            "total" => total = Some(number(fields[0])),
+            cause => rows.push((cause.to_string(), number(fields[0]), number(fields[2]) as usize)),
+        }
+    }
+    (rows, total.unwrap_or_else(|| panic!("a total row:\n{text}")))
+}
+
+/// The marks the table lists: (number, CL line, blocks, lowest percent, seconds lost, cause).
+fn marks(text: &str) -> Vec<(usize, usize, usize, f64, f64, String)> {
+    section(text, "   mark     line  blocks")
+        .iter()
+        .map(|row| {
+            let f: Vec<&str> = row.split_whitespace().collect();
+            let mark: usize = f[0].strip_prefix('#').and_then(|n| n.parse().ok()).unwrap_or_else(|| panic!("`{row}`"));
+            let cause = row[43..].split("  ").next().unwrap_or("").trim().to_string();
+            (mark, number_of(f[1]), number_of(f[2]), number(f[3].trim_end_matches('%')), number(f[4]), cause)
+        })
+        .collect()
+}
+
+fn number_of(field: &str) -> usize {
+    number(field) as usize
 }
 
 #[test]
@@ -87,47 +124,60 @@ fn predict_prints_the_totals_and_the_worst_slowdowns() {
     );
     assert!((t.cycle_time - t.programmed_time - t.lost).abs() <= 0.011, "lost = predicted - programmed:\n{out}");
 
-    // The worst slowdowns are below the threshold, at most 10, and the count says how many.
-    let summary = out.lines().find(|l| l.contains(" slowdowns below 80% of F; the worst ")).expect("a slowdown line");
-    let count: usize = number(summary.split_whitespace().next().expect("a count")) as usize;
-    let worst = rows(&out);
-    assert_eq!(worst.len(), count.min(10), "{out}");
-    assert!(!worst.is_empty(), "the hypar slows down on the Mikron:\n{out}");
-    let mut ratios = Vec::new();
-    for row in &worst {
-        let c = columns(row);
-        assert_eq!(c[2], "feed", "a slowdown is a feed block: `{row}`");
-        let (programmed, lowest) = (number(&c[4]), number(&c[5]));
-        // Printed to the mm/min: half a unit of rounding.
-        assert!(lowest - 0.5 < 0.8 * programmed, "below 80% of F: `{row}`");
-        // The range of the ratio, with the printed figures' rounding.
-        ratios.push(((lowest - 0.5) / programmed, (lowest + 0.5) / programmed));
-        assert_ne!(c[8], "exact stop", "a stop is no slowdown: `{row}`");
+    // The causes add up to the time lost (each printed to 5 ms), the total row says so.
+    let (by_cause, total) = causes(&out);
+    let sum: f64 = by_cause.iter().map(|r| r.1).sum();
+    assert!((total - t.lost).abs() <= 0.005, "total {total} s, lost {} s:\n{out}", t.lost);
+    assert!((sum - t.lost).abs() <= 0.005 * (by_cause.len() as f64 + 1.0), "the causes add up to {sum} s:\n{out}");
+    for cause in ["G1 feed on the axes", "corner", "exact stop", "plunge or retract"] {
+        assert!(by_cause.iter().any(|r| r.0 == cause), "{cause} among the causes:\n{out}");
     }
-    assert!(ratios.windows(2).all(|w| w[0].0 <= w[1].1), "the worst first:\n{out}");
 
-    // `--blocks`: the same totals, then every block; the worst rows are among them, unchanged.
+    // One operation, all of the program.
+    let operations = section(&out, "  operation ");
+    assert_eq!(operations.len(), 1, "{out}");
+    let op: Vec<&str> = operations[0].split_whitespace().collect();
+    assert_eq!(op[0], "VARIABLE_CONTOUR");
+    assert_eq!((number(op[1]), number(op[3])), (t.cycle_time, t.lost), "{out}");
+
+    // The marks: the worst first, at most 10, below the threshold, never a stop's.
+    let summary = out.lines().find(|l| l.contains(" slowdowns marked (below 80% of F")).expect("a marks line");
+    let count = number_of(summary.split_whitespace().next().expect("a count"));
+    let listed = marks(&out);
+    assert!(!listed.is_empty(), "the hypar slows down on the Mikron:\n{out}");
+    assert_eq!(listed.len(), count.min(10), "{out}");
+    assert!(listed.windows(2).all(|w| w[0].4 >= w[1].4), "the worst first:\n{out}");
+    for (number, _, blocks, lowest, lost, cause) in &listed {
+        assert!(*number >= 1 && *number <= count && *blocks >= 1, "{out}");
+        assert!(*lowest < 80.0 && *lost >= 0.05, "#{number}: {lowest}% and {lost} s:\n{out}");
+        assert!(!["exact stop", "plunge or retract", ""].contains(&cause.as_str()), "#{number}: `{cause}`");
+    }
+
+    // `--blocks`: the same totals, then every block, their time lost adding up to the total.
     let o = postpro(&["predict", EXAMPLE, "--machine", MACHINE, "--blocks"], &repo());
     assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
     let all = stdout(&o);
     let head = |text: &str| -> String {
-        let lines = text.lines().take_while(|l| !l.starts_with("  block    line") && !l.contains("slowdowns below"));
+        let lines = text.lines().take_while(|l| !l.starts_with("  block    line") && !l.contains("slowdowns marked"));
         lines.collect::<Vec<_>>().join("\n").trim_end().to_string()
     };
     assert_eq!(head(&all), head(&out), "--blocks prints the same totals");
     let every = rows(&all);
     assert_eq!(every.len(), t.blocks, "one row per block of the header line");
+    let mut lost = 0.0;
     for (i, row) in every.iter().enumerate() {
         let c = columns(row);
         assert_eq!(c[0], (i + 1).to_string(), "blocks numbered in order: `{row}`");
         assert!(["feed", "rapid", "reorientation"].contains(&c[2].as_str()), "`{row}`");
         assert!(number(&c[7]) >= 0.0, "`{row}`");
+        if c[2] != "feed" {
+            assert_eq!(number(&c[8]), 0.0, "only feed blocks lose time: `{row}`");
+        }
+        lost += number(&c[8]);
     }
+    assert!((lost - t.lost).abs() <= 0.01, "the blocks lose {lost} s, the table says {} s", t.lost);
     let lines: Vec<usize> = every.iter().map(|r| number(&columns(r)[1]) as usize).collect();
     assert!(lines.windows(2).all(|w| w[0] <= w[1]), "blocks follow the CL file");
-    for row in &worst {
-        assert!(every.contains(row), "`{row}` is listed by --blocks as it is among the worst");
-    }
 }
 
 #[test]
@@ -294,7 +344,11 @@ fn csv_exports_samples_and_blocks_that_add_up_to_the_cycle_time() {
             "min_feed_mm_min",
             "mean_feed_mm_min",
             "time_s",
-            "limit"
+            "limit",
+            "time_lost_s",
+            "stop_lost_s",
+            "cause",
+            "operation"
         ]
     );
     assert_eq!(blocks.len(), e.table.blocks, "one row per block");
@@ -305,6 +359,16 @@ fn csv_exports_samples_and_blocks_that_add_up_to_the_cycle_time() {
     }
     let sum: f64 = blocks.iter().map(|r| number(&r[7])).sum();
     let json: serde_json::Value = serde_json::from_str(&read(&e.dir, "prediction.json")).expect("JSON");
+    // The blocks' time lost adds up to the program's, and so does their time at the feed.
+    let lost: f64 = blocks.iter().map(|r| number(&r[9])).sum();
+    let total = json["totals"]["time_lost_s"].as_f64().expect("time_lost_s");
+    assert!((lost - total).abs() <= 1e-3, "the blocks lose {lost} s, the program {total} s");
+    for r in &blocks {
+        if r[2] != "feed" {
+            assert_eq!((number(&r[9]), number(&r[10])), (0.0, 0.0), "only feed blocks lose time: {r:?}");
+        }
+        assert_eq!(r[12], "1", "one operation: {r:?}");
+    }
     let cycle = json["totals"]["cycle_time_s"].as_f64().expect("cycle_time_s");
     assert!((sum - cycle).abs() <= 1e-3, "the block times add up to {sum} s, the cycle time is {cycle} s");
     assert!((sum - e.table.cycle_time).abs() <= 0.005 + 1e-3, "{sum} s against the table's {} s", e.table.cycle_time);
@@ -322,7 +386,10 @@ fn json_has_the_totals_blocks_and_samples_of_the_table() {
     let keys =
         |v: &serde_json::Value| -> BTreeSet<String> { v.as_object().expect("an object").keys().cloned().collect() };
     let set = |names: &[&str]| -> BTreeSet<String> { names.iter().map(|s| s.to_string()).collect() };
-    assert_eq!(keys(&json), set(&["file", "machine", "planner", "totals", "notes", "blocks", "samples"]));
+    assert_eq!(
+        keys(&json),
+        set(&["file", "machine", "planner", "totals", "operations", "marks", "notes", "blocks", "samples"])
+    );
     assert_eq!(json["notes"], serde_json::json!([]), "the example needs no assumption");
     assert_eq!(
         (json["file"].as_str(), json["machine"].as_str(), json["planner"].as_str()),
@@ -335,6 +402,22 @@ fn json_has_the_totals_blocks_and_samples_of_the_table() {
     assert!((programmed - e.table.programmed_time).abs() <= 0.005);
     let lost = totals["time_lost_s"].as_f64().expect("time_lost_s");
     assert!((cycle - programmed - lost).abs() <= 1e-9);
+    // The causes partition the time lost, to one interpolation period (the Mikron's 3 ms).
+    let causes = totals["causes"].as_array().expect("causes");
+    let sum: f64 = causes.iter().map(|c| c["time_lost_s"].as_f64().expect("seconds")).sum();
+    assert!((sum - lost).abs() <= 0.003, "the causes add up to {sum} s, the time lost is {lost} s");
+    // One operation, the program's figures; every mark with its text.
+    let operations = json["operations"].as_array().expect("operations");
+    assert_eq!(operations.len(), 1);
+    assert_eq!(operations[0]["name"], "VARIABLE_CONTOUR");
+    assert!((operations[0]["time_lost_s"].as_f64().expect("lost") - lost).abs() <= 1e-9);
+    let marks = json["marks"].as_array().expect("marks");
+    assert!(!marks.is_empty());
+    for (i, m) in marks.iter().enumerate() {
+        assert_eq!(m["number"].as_u64(), Some(i as u64 + 1), "numbered in program order: {m}");
+        let text = m["text"].as_str().expect("text");
+        assert!(text.starts_with(&format!("slowdown #{}: ", i + 1)) && text.ends_with(" s lost"), "{text}");
+    }
     assert_eq!(totals["threshold"].as_f64(), Some(0.8));
     let share = totals["share_below"].as_f64().expect("share_below");
     let (below, length) =
@@ -417,6 +500,189 @@ fn the_plot_is_a_small_svg_with_the_title_and_the_velocities() {
     assert_eq!(colours.len(), legend.len(), "one colour per limiter: {legend:?}");
 }
 
+// ----- The HTML report ---------------------------------------------------------------------------
+
+/// An element of the report: name, attributes, children.
+#[derive(Debug, Default)]
+struct Element {
+    name: String,
+    attributes: Vec<(String, String)>,
+    children: Vec<Node>,
+}
+
+#[derive(Debug)]
+enum Node {
+    Element(Element),
+    Text(String),
+}
+
+impl Element {
+    fn attribute(&self, name: &str) -> Option<&str> {
+        self.attributes.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str())
+    }
+
+    /// Every element below this one named `name`, in document order.
+    fn all<'a>(&'a self, name: &str, out: &mut Vec<&'a Element>) {
+        for child in &self.children {
+            if let Node::Element(e) = child {
+                if e.name == name {
+                    out.push(e);
+                }
+                e.all(name, out);
+            }
+        }
+    }
+
+    fn find(&self, name: &str) -> Vec<&Element> {
+        let mut out = Vec::new();
+        self.all(name, &mut out);
+        out
+    }
+
+    /// The text inside, entities decoded.
+    fn text(&self) -> String {
+        let mut out = String::new();
+        for child in &self.children {
+            match child {
+                Node::Text(t) => out.push_str(t),
+                Node::Element(e) => out.push_str(&e.text()),
+            }
+        }
+        out.replace("&lt;", "<")
+            .replace("&gt;", ">")
+            .replace("&quot;", "\"")
+            .replace("&#39;", "'")
+            .replace("&amp;", "&")
+    }
+}
+
+/// Reads the report back: every element closed (`<meta …/>` and SVG's `<… />` close themselves),
+/// every attribute quoted; panics on anything else.
+fn parse_html(text: &str) -> Element {
+    let body = text.strip_prefix("<!DOCTYPE html>").expect("the doctype first");
+    let mut stack = vec![Element { name: "#document".into(), ..Element::default() }];
+    let mut rest = body;
+    while let Some(open) = rest.find('<') {
+        if open > 0 {
+            stack.last_mut().expect("open").children.push(Node::Text(rest[..open].to_string()));
+        }
+        let close = rest[open..].find('>').expect("a tag ends") + open;
+        let tag = &rest[open + 1..close];
+        rest = &rest[close + 1..];
+        if tag.starts_with('!') || tag.starts_with('?') {
+            continue;
+        }
+        if let Some(name) = tag.strip_prefix('/') {
+            let done = stack.pop().expect("an open element");
+            assert_eq!(done.name, name.trim(), "</{name}> closes <{}>", done.name);
+            stack.last_mut().expect("a parent").children.push(Node::Element(done));
+            continue;
+        }
+        let closed = tag.ends_with('/');
+        let tag = tag.trim_end_matches('/');
+        let (name, mut attrs) = tag.split_once(char::is_whitespace).unwrap_or((tag, ""));
+        let mut element = Element { name: name.to_string(), ..Element::default() };
+        loop {
+            attrs = attrs.trim_start();
+            let Some((key, after)) = attrs.split_once('=') else {
+                assert!(attrs.is_empty(), "`{attrs}` in <{name}>: attributes are quoted");
+                break;
+            };
+            let after = after.strip_prefix('"').unwrap_or_else(|| panic!("<{name} {key}=…> quoted"));
+            let (value, more) = after.split_once('"').expect("a closing quote");
+            element.attributes.push((key.trim().to_string(), value.to_string()));
+            attrs = more;
+        }
+        if closed {
+            stack.last_mut().expect("a parent").children.push(Node::Element(element));
+        } else {
+            stack.push(element);
+        }
+    }
+    assert!(rest.trim().is_empty(), "nothing after the last tag");
+    assert_eq!(stack.len(), 1, "unclosed: {:?}", stack.iter().map(|e| &e.name).collect::<Vec<_>>());
+    stack.pop().expect("the document")
+}
+
+/// Two NX operations of zig-zags with sharp turns at 8 m/min, the second one's name in need of
+/// escaping.
+fn two_operations() -> String {
+    let mut text = String::new();
+    for (name, y0) in [("ROUGH", 0.0), ("FINISH<&>", 60.0)] {
+        text.push_str(&format!("TOOL PATH/{name},TOOL,MILL\nLOAD/TOOL,1\nSPINDL/RPM,10000,CLW\n"));
+        text.push_str(&format!("RAPID\nGOTO/0,{y0},5,0,0,1\nRAPID\nGOTO/0,{y0},0\nFEDRAT/MMPM,8000\n"));
+        for k in 0..8 {
+            let y = y0 + 5.0 * f64::from(k);
+            let (from, to) = if k % 2 == 0 { (0.0, 40.0) } else { (40.0, 0.0) };
+            text.push_str(&format!("GOTO/{from},{y},0\nGOTO/{to},{y},0\n"));
+        }
+        text.push_str(&format!("RAPID\nGOTO/0,{},5\nEND-OF-PATH\n", y0 + 35.0));
+    }
+    text
+}
+
+#[test]
+fn the_html_report_has_its_sections_a_row_per_operation_and_every_mark() {
+    let dir = scratch("report");
+    std::fs::write(dir.join("two.cl"), two_operations()).expect("write");
+    let args = ["predict", "two.cl", "--machine", MACHINE, "--report", "report.html", "--json", "p.json"];
+    let o = postpro(&args, &dir);
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let html = read(&dir, "report.html");
+    let json: serde_json::Value = serde_json::from_str(&read(&dir, "p.json")).expect("JSON");
+    // Self-contained: no script, no link, nothing fetched.
+    for outside in ["<script", "<link", "src=", "href=", "url(", "@import"] {
+        assert!(!html.contains(outside), "`{outside}` in the report");
+    }
+    let doc = parse_html(&html);
+    let sections: Vec<&str> = doc.find("section").iter().filter_map(|s| s.attribute("id")).collect();
+    assert_eq!(sections, ["totals", "plot", "operations", "causes", "marks"]);
+    let section = |id: &str| doc.find("section").into_iter().find(|s| s.attribute("id") == Some(id)).expect(id);
+    assert_eq!(doc.find("title")[0].text(), "two.cl on mikron-ucp710: predicted feed");
+
+    // The totals are the JSON's.
+    let totals = section("totals").text();
+    let cycle = json["totals"]["cycle_time_s"].as_f64().expect("cycle");
+    assert!(totals.contains(&format!("predicted cycle time{:.2} s", cycle)), "{totals}");
+
+    // The plot, inline: the SVG of --plot with the operations named on it.
+    let svg = section("plot").find("svg");
+    assert_eq!(svg.len(), 1, "one plot");
+    let drawn = svg[0].text();
+    for text in ["ROUGH", "FINISH<&>", "rapid (left out)"] {
+        assert!(drawn.contains(text), "`{text}` on the plot");
+    }
+
+    // A row per operation, in order, with the JSON's figures.
+    let rows = section("operations").find("tbody")[0].find("tr");
+    let operations = json["operations"].as_array().expect("operations");
+    assert_eq!(rows.len(), 2);
+    assert_eq!(operations.len(), 2);
+    for (row, op) in rows.iter().zip(operations) {
+        let cells: Vec<String> = row.find("td").iter().map(|c| c.text()).collect();
+        assert_eq!(cells[0], op["name"].as_str().expect("name"));
+        assert_eq!(cells[3], format!("{:.2}", op["time_lost_s"].as_f64().expect("lost")));
+    }
+
+    // Every mark, worst first, with its number and CL line as the JSON has them.
+    let marks = json["marks"].as_array().expect("marks");
+    assert!(marks.len() >= 2, "the turns at 8 m/min are marked: {marks:?}");
+    let rows = section("marks").find("tbody")[0].find("tr");
+    assert_eq!(rows.len(), marks.len(), "every mark listed");
+    let mut previous = f64::INFINITY;
+    for row in &rows {
+        let cells: Vec<String> = row.find("td").iter().map(|c| c.text()).collect();
+        let n: u64 = cells[0].trim_start_matches('#').parse().expect("a mark number");
+        let mark = marks.iter().find(|m| m["number"].as_u64() == Some(n)).expect("a mark of the JSON");
+        assert_eq!(cells[1], mark["line"].to_string());
+        let text = mark["text"].as_str().expect("text");
+        assert_eq!(format!("slowdown #{n}: {}", cells[4]), text);
+        let lost = number(&cells[3]);
+        assert!(lost <= previous, "the worst first");
+        previous = lost;
+    }
+}
+
 // ----- Errors -----------------------------------------------------------------------------------------
 
 /// Runs `predict` in a scratch folder asking for every export, and gives the exit code and the
@@ -427,7 +693,16 @@ fn failing(name: &str, args: &[&str]) -> String {
     let before = files(&dir);
     let mut all = vec!["predict"];
     all.extend_from_slice(args);
-    all.extend_from_slice(&["--csv", "samples.csv", "--json", "prediction.json", "--plot", "feed.svg"]);
+    all.extend_from_slice(&[
+        "--csv",
+        "samples.csv",
+        "--json",
+        "prediction.json",
+        "--plot",
+        "feed.svg",
+        "--report",
+        "report.html",
+    ]);
     let o = postpro(&all, &dir);
     assert!(stdout(&o).is_empty(), "postpro {all:?} prints no table:\n{}", stdout(&o));
     assert_eq!(files(&dir), before, "postpro {all:?} writes nothing");
@@ -494,6 +769,7 @@ fn an_output_in_a_missing_folder_exits_1_without_a_partial_file() {
         ("missing-csv", "--csv", "missing/samples.csv"),
         ("missing-json", "--json", "missing/prediction.json"),
         ("missing-plot", "--plot", "missing/feed.svg"),
+        ("missing-report", "--report", "missing/report.html"),
     ] {
         let dir = scratch(name);
         let o = postpro(&["predict", CL, "--machine", MACHINE, flag, file], &dir);
@@ -521,6 +797,8 @@ struct Program {
 const PREDICTED: &str = "; predicted cycle time: ";
 const BELOW: &str = "; below ";
 const SLOWDOWN: &str = "; slowdown ";
+const OPERATION: &str = "; operation ";
+const WORST: &str = "; worst slowdown ";
 
 fn is_motion(line: &str) -> bool {
     line.starts_with("G0 ") || line.starts_with("G1 ")
@@ -555,7 +833,7 @@ impl Program {
         self.lines
             .iter()
             .map(String::as_str)
-            .filter(|l| !l.starts_with(SLOWDOWN) && !l.starts_with(PREDICTED) && !l.starts_with(BELOW))
+            .filter(|l| ![SLOWDOWN, PREDICTED, BELOW, OPERATION, WORST].iter().any(|p| l.starts_with(p)))
             .collect()
     }
 
@@ -565,11 +843,15 @@ impl Program {
     }
 }
 
-/// A slowdown comment: `slowdown 45% of F over 3 blocks, C jerk`, as (percent, blocks, limit).
-fn slowdown(text: &str) -> (u32, usize, String) {
-    let rest = text.strip_prefix("slowdown ").expect("slowdown");
+/// A slowdown comment: `slowdown #3: 45% of F over 3 blocks, C jerk, 0.42 s lost`, as (number,
+/// percent, blocks, cause, seconds lost).
+fn slowdown(text: &str) -> (usize, u32, usize, String, f64) {
+    let rest = text.strip_prefix("slowdown #").unwrap_or_else(|| panic!("`{text}`"));
+    let (mark, rest) = rest.split_once(": ").unwrap_or_else(|| panic!("`{text}`"));
     let (percent, rest) = rest.split_once("% of F").unwrap_or_else(|| panic!("`{text}`"));
-    let (over, limit) = rest.split_once(", ").unwrap_or_else(|| panic!("`{text}`"));
+    let (over, rest) = rest.split_once(", ").unwrap_or_else(|| panic!("`{text}`"));
+    let (cause, lost) = rest.rsplit_once(", ").unwrap_or_else(|| panic!("`{text}`"));
+    let lost = lost.strip_suffix(" s lost").unwrap_or_else(|| panic!("`{text}`"));
     let blocks = match over.strip_prefix(" over ").and_then(|o| o.strip_suffix(" blocks")) {
         Some(n) => {
             let n: usize = n.parse().unwrap_or_else(|_| panic!("`{text}`"));
@@ -581,16 +863,22 @@ fn slowdown(text: &str) -> (u32, usize, String) {
             1
         }
     };
-    (percent.parse().unwrap_or_else(|_| panic!("a whole percentage: `{text}`")), blocks, limit.to_string())
+    (
+        mark.parse().unwrap_or_else(|_| panic!("`{text}`")),
+        percent.parse().unwrap_or_else(|_| panic!("a whole percentage: `{text}`")),
+        blocks,
+        cause.to_string(),
+        number(lost),
+    )
 }
 
-/// What the comments may name as the cause: never a stop or a rapid.
+/// What the comments may name as the cause: never a stop, a plunge or a rapid.
 fn known_limit(limit: &str) -> bool {
     let axis = |kind: &str| ["X", "Y", "Z", "A", "C"].iter().any(|a| limit == format!("{a} {kind}"));
     axis("velocity")
         || axis("acceleration")
         || axis("jerk")
-        || ["programmed", "corner", "look-ahead", "cycle time", "path acceleration", "path jerk", "G1 feed on the axes"]
+        || ["corner", "look-ahead", "cycle time", "path acceleration", "path jerk", "G1 feed on the axes"]
             .contains(&limit)
 }
 
@@ -610,14 +898,17 @@ fn share_below(program: &Program) -> f64 {
     number(share)
 }
 
-/// The slowdown comments of `program` with their checks: below the threshold, a known cause,
-/// runs in order and apart, never across a rapid; the header's count is theirs.
+/// The slowdown comments of `program` with their checks: numbered in order, below the
+/// threshold, at least the minimum lost, a known cause, runs in order and apart, never across a
+/// rapid; the header's count is theirs, its worst five are among them, the worst first.
 fn check_slowdowns(program: &Program, threshold: u32, label: &str) {
     let motion = program.motion();
     let mut end = 0;
-    for (at, text) in &program.slowdowns {
-        let (percent, blocks, limit) = slowdown(text);
+    for (i, (at, text)) in program.slowdowns.iter().enumerate() {
+        let (number, percent, blocks, limit, lost) = slowdown(text);
+        assert_eq!(number, i + 1, "{label}: `{text}` numbered in order");
         assert!(percent < threshold, "{label}: `{text}` is below {threshold}%");
+        assert!(lost >= 0.05, "{label}: `{text}` loses at least --min-loss");
         assert!(known_limit(&limit), "{label}: `{text}` names what holds the feed");
         assert!(*at >= end, "{label}: `{text}` starts after the run before it");
         end = at + blocks;
@@ -630,6 +921,19 @@ fn check_slowdowns(program: &Program, threshold: u32, label: &str) {
         "{label}: `{marked}` counts the comments ({})",
         program.slowdowns.len()
     );
+    let worst: Vec<&str> = program.lines.iter().filter_map(|l| l.strip_prefix(WORST)).collect();
+    assert_eq!(worst.len(), program.slowdowns.len().min(5), "{label}: the worst five in the header");
+    let mut previous = f64::INFINITY;
+    for line in worst {
+        // `#3 at CL line 120: 38% of F …`: the comment `slowdown #3: 38% of F …` is in the program.
+        let (head, text) = line.split_once(": ").unwrap_or_else(|| panic!("`{line}`"));
+        let number = head.split_whitespace().next().unwrap_or("");
+        let comment = format!("slowdown {number}: {text}");
+        assert!(program.slowdowns.iter().any(|(_, t)| *t == comment), "{label}: `{comment}` is in the program");
+        let lost = slowdown(&comment).4;
+        assert!(lost <= previous, "{label}: the worst first");
+        previous = lost;
+    }
 }
 
 /// The main job with and without prediction, at several thresholds, for one planner.
@@ -642,7 +946,10 @@ fn main_job_marks_the_slowdowns(planner: &str) {
     assert!(predicted.ends_with(&format!(", planner: {planner}")), "{predicted}");
     assert!(program.header(BELOW).is_some_and(|l| l.starts_with("; below 80.0 percent of the programmed feed")));
     assert!(!program.slowdowns.is_empty(), "the hypar slows down on the Mikron ({planner})");
+    assert!(program.slowdowns.len() <= 10, "at most --max-marks (10) in its one operation ({planner})");
     check_slowdowns(&program, 80, planner);
+    let operation = program.header(OPERATION).expect("the operation's line");
+    assert!(operation.starts_with("; operation VARIABLE_CONTOUR: predicted "), "{operation}");
 
     // The cycle time is the one `postpro predict` gives for the same mode (the main job's default
     // is g1), and stderr says it too.
@@ -655,7 +962,7 @@ fn main_job_marks_the_slowdowns(planner: &str) {
         "`{predicted}`: predict says {} s",
         t.cycle_time
     );
-    let lost = format!("{:.1}", t.lost.max(0.0));
+    let lost = format!("{:.1}", t.lost);
     assert!(
         predicted.contains(&format!(", lost to slowdowns: {lost} s, ")),
         "`{predicted}`: predict says {} s",
@@ -667,12 +974,14 @@ fn main_job_marks_the_slowdowns(planner: &str) {
     assert!(told.starts_with(&format!("predicted cycle time {cycle} s, ")), "{told}");
     assert!(told.ends_with(&format!(", {} slowdowns marked", program.slowdowns.len())), "{told}");
 
-    // A higher threshold marks every block marked at 80% (runs may merge), a zero one none.
-    let (high, _) = main_job(&dir, "high.mpf", &[&planner_args[..], &["--threshold", "95"]].concat());
+    // A higher threshold marks every block marked at 80% (runs may merge; every run kept), a zero
+    // one none.
+    let high_args = [&planner_args[..], &["--threshold", "95", "--max-marks", "1000"]].concat();
+    let (high, _) = main_job(&dir, "high.mpf", &high_args);
     check_slowdowns(&high, 95, &format!("{planner} at 95%"));
     for (at, text) in &program.slowdowns {
-        let (_, blocks, _) = slowdown(text);
-        let within = high.slowdowns.iter().any(|(start, run)| *start <= *at && at + blocks <= start + slowdown(run).1);
+        let blocks = slowdown(text).2;
+        let within = high.slowdowns.iter().any(|(start, run)| *start <= *at && at + blocks <= start + slowdown(run).2);
         assert!(within, "{planner}: `{text}` at block {at} is within a slowdown at 95%: {:?}", high.slowdowns);
     }
     let (none, _) = main_job(&dir, "zero.mpf", &[&planner_args[..], &["--threshold", "0"]].concat());
