@@ -22,6 +22,7 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for (mode, label) in [(Mode::G1, "g1"), (Mode::InverseTime, "inverse_time"), (Mode::Bspline, "bspline")] {
         let options = Options {
+            units: postpro_machine::model::ProgramUnits::Mm,
             program_name: "BENCH".into(),
             source_name: "big.cl".into(),
             block_numbers: false,
@@ -33,8 +34,11 @@ fn bench(c: &mut Criterion) {
                 let path = read(&source);
                 let kin = solver_for(&machine);
                 let solved = solve(kin.as_ref(), &path, &machine.policy).expect("solves");
-                let motion = postpro_motion::collect(&path, &solved, kin.as_ref(), &motion_options(d, mode))
-                    .expect("the motion program builds");
+                let (job, _) = postpro_motion::Job::new(kin.as_ref(), &path, mode, None, d.default_work_offset())
+                    .expect("the tools");
+                let motion =
+                    postpro_motion::collect(&path, &solved, kin.as_ref(), &motion_options(d, mode, true), &job)
+                        .expect("the motion program builds");
                 let mut out = std::io::BufWriter::new(std::io::sink());
                 write_program(&motion, &machine, d, &options, d.name, template, &mut out).expect("writes");
                 solved.steps.len()

@@ -2,6 +2,11 @@
 //! numbers are written, line length, feed ranges, which output modes exist). The layout of the
 //! program is the template's (`templates/<name>.j2`).
 
+use postpro_machine::setup::WorkOffset;
+
+use crate::EmitError;
+use crate::program::WorkOffsetWord;
+
 /// How the controller takes the tool orientation in TCP mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -43,6 +48,94 @@ pub struct Dialect {
     pub tcp: TcpStyle,
     /// Decimals of F words.
     pub feed_decimals: usize,
+    /// Circular interpolation of several turns in one block (LinuxCNC `P`, Siemens `TURN`,
+    /// Heidenhain `CP IPA`).
+    pub arc_turns: bool,
+    /// Circular interpolation in the three principal planes (`G17`/`G18`/`G19`); else X–Y only.
+    pub arc_all_planes: bool,
+    /// A retract in machine coordinates cancels the tool length offset (Siemens `SUPA … D0`):
+    /// it is switched on again before the next motion.
+    pub machine_retract_cancels_length: bool,
+    /// The work offsets it selects.
+    pub work_offsets: WorkOffsets,
+}
+
+/// Which work offsets a dialect selects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WorkOffsets {
+    /// Fanuc: `G54`…`G59`, `G54.1 P1`…`P48`.
+    Fanuc,
+    /// Haas: `G54`…`G59`, `G154 P1`…`P99` (written `G154 Pn`).
+    Haas,
+    /// Siemens: `G54`…`G57`, settable frames `G505`…`G599`.
+    Siemens,
+    /// Heidenhain: a row of the preset table.
+    Heidenhain,
+    /// LinuxCNC: `G54`…`G59`, `G59.1`…`G59.3`.
+    LinuxCnc,
+}
+
+impl Dialect {
+    /// The work offset as this dialect selects it, or why it cannot.
+    pub fn work_offset(&self, offset: &WorkOffset) -> Result<WorkOffsetWord, EmitError> {
+        let code = |code: String| Ok(WorkOffsetWord { code, preset: None });
+        let (ok, accepted): (Option<Result<WorkOffsetWord, EmitError>>, &str) = match self.work_offsets {
+            WorkOffsets::Fanuc => (
+                match *offset {
+                    WorkOffset::G(54..=59) => Some(code(offset.to_string())),
+                    WorkOffset::G54_1(p @ 1..=48) => Some(code(format!("G54.1 P{p}"))),
+                    _ => None,
+                },
+                "G54…G59 or G54.1 P1…P48",
+            ),
+            WorkOffsets::Haas => (
+                match *offset {
+                    WorkOffset::G(54..=59) => Some(code(offset.to_string())),
+                    WorkOffset::G54_1(p @ 1..=99) => Some(code(format!("G154 P{p}"))),
+                    _ => None,
+                },
+                "G54…G59 or G154 P1…P99 (G54.1 Pn)",
+            ),
+            WorkOffsets::Siemens => (
+                match *offset {
+                    WorkOffset::G(54..=57) | WorkOffset::Frame(505..=599) => Some(code(offset.to_string())),
+                    _ => None,
+                },
+                "G54…G57 or G505…G599",
+            ),
+            WorkOffsets::Heidenhain => (
+                match *offset {
+                    WorkOffset::Preset(row) => Some(Ok(WorkOffsetWord { code: offset.to_string(), preset: Some(row) })),
+                    _ => None,
+                },
+                "a preset-table row (`preset 1`)",
+            ),
+            WorkOffsets::LinuxCnc => (
+                match *offset {
+                    WorkOffset::G(54..=59) | WorkOffset::G59Dot(1..=3) => Some(code(offset.to_string())),
+                    _ => None,
+                },
+                "G54…G59 or G59.1…G59.3",
+            ),
+        };
+        ok.unwrap_or_else(|| {
+            Err(EmitError::WorkOffset {
+                dialect: self.name,
+                offset: offset.to_string(),
+                accepted: accepted.to_string(),
+            })
+        })
+    }
+
+    /// The work offset a program selects when the set-up names none: `G54`, or the first row of
+    /// the preset table on Heidenhain.
+    pub fn default_work_offset(&self) -> WorkOffset {
+        match self.work_offsets {
+            WorkOffsets::Heidenhain => WorkOffset::Preset(1),
+            _ => WorkOffset::G(54),
+        }
+    }
 }
 
 /// Every dialect postpro writes.
@@ -60,6 +153,10 @@ pub const DIALECTS: &[Dialect] = &[
         bspline: true,
         tcp: TcpStyle::Traori,
         feed_decimals: 3,
+        arc_turns: true,
+        arc_all_planes: true,
+        machine_retract_cancels_length: true,
+        work_offsets: WorkOffsets::Siemens,
     },
     Dialect {
         name: "fanuc",
@@ -74,6 +171,10 @@ pub const DIALECTS: &[Dialect] = &[
         bspline: false,
         tcp: TcpStyle::G43_5,
         feed_decimals: 3,
+        arc_turns: false,
+        arc_all_planes: true,
+        machine_retract_cancels_length: false,
+        work_offsets: WorkOffsets::Fanuc,
     },
     Dialect {
         name: "heidenhain",
@@ -88,6 +189,10 @@ pub const DIALECTS: &[Dialect] = &[
         bspline: false,
         tcp: TcpStyle::M128,
         feed_decimals: 0,
+        arc_turns: true,
+        arc_all_planes: false,
+        machine_retract_cancels_length: false,
+        work_offsets: WorkOffsets::Heidenhain,
     },
     Dialect {
         name: "linuxcnc",
@@ -102,6 +207,10 @@ pub const DIALECTS: &[Dialect] = &[
         bspline: false,
         tcp: TcpStyle::None,
         feed_decimals: 3,
+        arc_turns: true,
+        arc_all_planes: true,
+        machine_retract_cancels_length: false,
+        work_offsets: WorkOffsets::LinuxCnc,
     },
 ];
 

@@ -34,6 +34,21 @@ pub fn push_number(out: &mut String, value: f64, decimals: usize, plus: bool) {
     }
 }
 
+/// `value` rounded to `decimals` digits, without trailing zeros (`6.096`, `10`, `0.5`): for
+/// header and comment numbers, never `6.095999999999999`.
+pub fn number_trimmed(value: f64, decimals: usize) -> String {
+    let mut s = number(value, decimals, false);
+    if s.contains('.') {
+        while s.ends_with('0') {
+            s.pop();
+        }
+        if s.ends_with('.') {
+            s.pop();
+        }
+    }
+    s
+}
+
 /// `value` with `decimals` digits after the point.
 pub fn number(value: f64, decimals: usize, plus: bool) -> String {
     let mut s = String::with_capacity(16);

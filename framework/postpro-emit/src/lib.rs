@@ -22,11 +22,11 @@ mod format;
 mod program;
 mod render;
 
-pub use dialect::{DIALECTS, Dialect, TcpStyle, dialect};
-pub use format::{number, push_number};
+pub use dialect::{DIALECTS, Dialect, TcpStyle, WorkOffsets, dialect};
+pub use format::{number, number_trimmed, push_number};
 pub use program::{
     Annotation, AxisInfo, Block, BlockSink, Header, MarkedSlowdown, Mode, OperationPrediction, Options, Prediction,
-    Program, Tool, Word, build, build_blocks, check_mode, clean_comment, header, motion_options, tools,
+    Program, Tool, Word, WorkOffsetWord, build, build_blocks, check_mode, clean_comment, header, motion_options, tools,
 };
 pub use render::{TEMPLATES, builtin_template, render, write_program};
 
@@ -59,6 +59,17 @@ pub enum EmitError {
         max: usize,
         /// The start of the line.
         start: String,
+    },
+    /// The dialect has no such work offset.
+    #[error("the {dialect} dialect has no work offset `{offset}`: it selects {accepted}")]
+    #[diagnostic(code(emit::work_offset), help("choose one with --work-offset (or `work_offset:` in the set-up file)"))]
+    WorkOffset {
+        /// The dialect.
+        dialect: &'static str,
+        /// The offset asked for.
+        offset: String,
+        /// What the dialect accepts.
+        accepted: String,
     },
     /// The template does not compile or render.
     #[error("template {name}: {message}")]

@@ -6,8 +6,8 @@
 
 use postpro_cl::Coolant;
 use postpro_kin::{Joints, Pose};
-use postpro_machine::model::{AxisKind, Machine};
-use postpro_motion::{BlockKind, FeedWord, Position};
+use postpro_machine::model::{AxisKind, Machine, ProgramUnits};
+use postpro_motion::{AxisSet, BlockKind, FeedWord, Position};
 use serde::Serialize;
 
 use crate::EmitError;
@@ -19,6 +19,8 @@ pub use postpro_motion::Mode;
 /// What the emitter is asked for.
 #[derive(Clone, Debug)]
 pub struct Options {
+    /// The units the program is written in.
+    pub units: ProgramUnits,
     /// Program name (from the file name).
     pub program_name: String,
     /// The CL file, as the user named it.
@@ -88,10 +90,16 @@ pub struct Header {
     pub cl_points: usize,
     /// Points added by linearization.
     pub linearized_points: usize,
-    /// Linearization tolerance (mm).
-    pub tolerance: f64,
+    /// Linearization tolerance, in the program's units, as written (`0.01`).
+    pub tolerance: String,
     /// Decisions of the IKT policy.
     pub decisions: usize,
+    /// The program's units: `mm` or `inch`.
+    pub units: &'static str,
+    /// The work offset the program selects.
+    pub work_offset: WorkOffsetWord,
+    /// Where the shop sets it: `the part zero`, `the B/C intersection`, …
+    pub origin: String,
     /// The prediction (cycle time, slowdowns): filled by the prediction stage, `none` until then.
     pub prediction: Option<Prediction>,
 }
@@ -164,12 +172,27 @@ pub struct AxisInfo {
 pub struct Tool {
     /// Number.
     pub number: u32,
-    /// Name, if the CL file gives one.
+    /// Name, if the CL file or the tool table gives one (cleaned like comment text).
     pub name: Option<String>,
-    /// Diameter (mm), if known.
-    pub diameter: Option<f64>,
-    /// Corner radius (mm), if known.
-    pub corner_radius: Option<f64>,
+    /// Diameter in the program's units, as written, if known.
+    pub diameter: Option<String>,
+    /// Corner radius in the program's units, as written, if known.
+    pub corner_radius: Option<String>,
+    /// Length in the program's units, as written, if known.
+    pub length: Option<String>,
+    /// Length-offset register (`H`).
+    pub length_register: u32,
+    /// Radius-offset register (`D`).
+    pub radius_register: u32,
+}
+
+/// A work offset as the dialect selects it.
+#[derive(Clone, Debug, Serialize)]
+pub struct WorkOffsetWord {
+    /// The code (`G54`, `G54.1 P7`, `G505`, `G59.1`; `preset 3` on Heidenhain).
+    pub code: String,
+    /// The preset-table row (Heidenhain), else none.
+    pub preset: Option<u32>,
 }
 
 /// One word: an address letter and its value.
@@ -234,12 +257,64 @@ pub enum Block {
         number: u32,
         /// Tool name.
         name: Option<String>,
-        /// Length-offset register.
+        /// Length-offset register (`H`).
         offset: u32,
-        /// The CNC applies the tool length (`G43 H…`, `D…`): true when the machine definition's
-        /// tool length is 0, i.e. the axis values are those of the spindle nose. False when the
-        /// axis values already include the tool length: the CNC must not add it again.
+        /// Radius-offset register (`D`).
+        radius_register: u32,
+        /// The tool's length in the program's units, as written, when known.
+        length: Option<String>,
+        /// The CNC applies the tool length (`G43 H…`, `D…`): true when the axis values are those
+        /// of the spindle nose. False when they already include the tool length (a head machine
+        /// in a joint mode): the CNC must not add it again.
         length_compensation: bool,
+    },
+    /// The work offset is selected.
+    WorkOffset {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The code (`G54`…) or preset row.
+        #[serde(flatten)]
+        offset: WorkOffsetWord,
+    },
+    /// A retract of the spindle axis in machine coordinates (`G53`, `SUPA`, `M91`).
+    MachineRetract {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The axis word, its value in machine coordinates.
+        words: Vec<Word>,
+    },
+    /// A circular arc (or helix).
+    Arc {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// `xy` (`G17`), `zx` (`G18`) or `yz` (`G19`).
+        plane: postpro_motion::Plane,
+        /// Clockwise about the plane's normal (`G2`), else counter-clockwise (`G3`).
+        clockwise: bool,
+        /// The end point's words that change (the helix axis included).
+        words: Vec<Word>,
+        /// The centre relative to the start, in the plane (`I J`, `K I`, `J K`).
+        center: Vec<Word>,
+        /// The centre in absolute coordinates, in the plane (Heidenhain `CC`).
+        center_absolute: Vec<Word>,
+        /// Full turns besides the last (LinuxCNC `P` = turns + 1, Siemens `TURN`).
+        turns: u32,
+        /// The swept angle (degrees, as written; Heidenhain `CP IPA`).
+        sweep: String,
+        /// The rise along the normal (helix), as written; none for a flat arc.
+        rise: Option<Word>,
+        /// The F word's value as written, when it is written.
+        feed: Option<String>,
+        /// A note for the end of the line.
+        note: Option<String>,
+    },
+    /// The tool's length offset, on again after a machine-coordinate retract cancelled it
+    /// (Siemens `D…`).
+    LengthOn {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The register.
+        register: u32,
     },
     /// Spindle on.
     SpindleOn {
@@ -315,6 +390,8 @@ pub enum Block {
     TcpOn {
         /// Block number, when numbering.
         n: Option<u32>,
+        /// The length-offset register of the tool in the spindle.
+        length_register: u32,
     },
     /// Tool-centre-point control off.
     TcpOff {
@@ -361,13 +438,34 @@ pub fn check_mode(dialect: &Dialect, mode: Mode) -> Result<(), EmitError> {
     if supported { Ok(()) } else { Err(EmitError::Unsupported { dialect: dialect.name, mode: mode.name() }) }
 }
 
-/// The motion program's options for a dialect and mode: the controller's feed ranges.
-pub fn motion_options(dialect: &Dialect, mode: Mode) -> postpro_motion::Options {
+/// The motion program's options for a dialect and mode: the controller's feed ranges and what
+/// it can say of arcs (`native_arcs` false: every arc as straight moves).
+pub fn motion_options(dialect: &Dialect, mode: Mode, native_arcs: bool) -> postpro_motion::Options {
     postpro_motion::Options {
         mode,
         inverse_time_range: dialect.inverse_time_range.unwrap_or((0.001, 99_999.0)),
         feed_range: dialect.feed_range,
+        arcs: if native_arcs {
+            postpro_motion::Arcs::Native { turns: dialect.arc_turns, all_planes: dialect.arc_all_planes }
+        } else {
+            postpro_motion::Arcs::Linear
+        },
+        clearance: true,
     }
+}
+
+/// Millimetres per unit of the program.
+fn unit_length(units: ProgramUnits) -> f64 {
+    match units {
+        ProgramUnits::Mm => 1.0,
+        ProgramUnits::Inch => 25.4,
+    }
+}
+
+/// A length (mm) in the program's units, as written with `decimals` (mm) — one more in inches.
+fn length_text(value: f64, units: ProgramUnits, decimals: usize) -> String {
+    let decimals = if units == ProgramUnits::Inch { decimals + 1 } else { decimals };
+    crate::format::number_trimmed(value / unit_length(units), decimals)
 }
 
 /// Builds the whole program (the template context).
@@ -377,16 +475,22 @@ pub fn build(
     dialect: &Dialect,
     options: &Options,
 ) -> Result<Program, EmitError> {
-    let header = header(motion, machine, dialect, options);
-    let tools = tools(motion);
+    let header = header(motion, machine, dialect, options)?;
+    let tools = tools(motion, dialect, options.units);
     let mut blocks = Vec::new();
     build_blocks(motion, machine, dialect, options, &mut blocks)?;
     Ok(Program { header, tools, blocks })
 }
 
-/// The header of the program.
-pub fn header(motion: &postpro_motion::Program, machine: &Machine, dialect: &Dialect, options: &Options) -> Header {
-    Header {
+/// The header of the program (an error when the dialect has no such work offset).
+pub fn header(
+    motion: &postpro_motion::Program,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+) -> Result<Header, EmitError> {
+    let work_offset = dialect.work_offset(&motion.work_offset)?;
+    Ok(Header {
         name: options.program_name.clone(),
         part: motion.part.clone(),
         source: options.source_name.clone(),
@@ -405,8 +509,11 @@ pub fn header(motion: &postpro_motion::Program, machine: &Machine, dialect: &Dia
             .collect(),
         cl_points: motion.summary.cl_points,
         linearized_points: motion.summary.linearized_points,
-        tolerance: machine.policy.linearization_tolerance,
+        tolerance: length_text(machine.policy.linearization_tolerance, options.units, 4),
         decisions: motion.summary.decisions,
+        units: options.units.as_str(),
+        work_offset,
+        origin: clean_comment(dialect, &motion.origin),
         prediction: options.prediction.as_ref().map(|p| Prediction {
             planner: clean_comment(dialect, &p.planner),
             operations: p
@@ -425,25 +532,24 @@ pub fn header(motion: &postpro_motion::Program, machine: &Machine, dialect: &Dia
                 .collect(),
             ..p.clone()
         }),
-    }
+    })
 }
 
-/// The tools of the program in order of first use, with the geometry given before each change.
-pub fn tools(motion: &postpro_motion::Program) -> Vec<Tool> {
-    let mut tools: Vec<Tool> = Vec::new();
-    for block in &motion.blocks {
-        if let BlockKind::ToolChange(t) = &block.kind
-            && !tools.iter().any(|x| x.number == t.number)
-        {
-            tools.push(Tool {
-                number: t.number,
-                name: t.name.clone(),
-                diameter: t.diameter,
-                corner_radius: t.corner_radius,
-            });
-        }
-    }
-    tools
+/// The tools of the program in order of first use, their numbers in the program's units.
+pub fn tools(motion: &postpro_motion::Program, dialect: &Dialect, units: ProgramUnits) -> Vec<Tool> {
+    motion
+        .tools
+        .iter()
+        .map(|t| Tool {
+            number: t.number,
+            name: t.name.as_deref().map(|n| clean_comment(dialect, n)),
+            diameter: t.diameter.map(|d| length_text(d, units, 3)),
+            corner_radius: t.corner_radius.map(|r| length_text(r, units, 3)),
+            length: t.length.map(|l| length_text(l, units, 3)),
+            length_register: t.length_register,
+            radius_register: t.radius_register,
+        })
+        .collect()
 }
 
 /// The blocks of the program, in order, handed to `sink`.
@@ -455,9 +561,9 @@ pub fn build_blocks(
     sink: &mut dyn BlockSink,
 ) -> Result<(), EmitError> {
     check_mode(dialect, motion.mode)?;
-    let mut f = Formatter::new(machine, motion.mode, dialect, options, sink);
+    let mut f = Formatter::new(machine, dialect, options, sink);
     for block in &motion.blocks {
-        f.block(&block.kind);
+        f.block(block);
     }
     f.finish()
 }
@@ -466,7 +572,6 @@ pub fn build_blocks(
 /// written last (axis texts, F, feed mode) and the annotations still to place.
 struct Formatter<'a> {
     machine: &'a Machine,
-    mode: Mode,
     dialect: &'a Dialect,
     options: &'a Options,
     sink: &'a mut dyn BlockSink,
@@ -481,21 +586,25 @@ struct Formatter<'a> {
     notes: Vec<usize>,
     /// The next one of `notes` to write.
     next_note: usize,
+    /// Millimetres per program unit.
+    unit: f64,
+    /// The length register of the tool in the spindle.
+    length_register: u32,
+    /// A machine-coordinate retract cancelled the length offset (Siemens `D0`): the next motion
+    /// switches it on again.
+    length_off: bool,
+    /// Where the last motion block ended.
+    previous: Option<Position>,
+    /// Tool-centre-point control is on: positions are the tip and the tool vector.
+    tcp_active: bool,
 }
 
 impl<'a> Formatter<'a> {
-    fn new(
-        machine: &'a Machine,
-        mode: Mode,
-        dialect: &'a Dialect,
-        options: &'a Options,
-        sink: &'a mut dyn BlockSink,
-    ) -> Self {
+    fn new(machine: &'a Machine, dialect: &'a Dialect, options: &'a Options, sink: &'a mut dyn BlockSink) -> Self {
         let mut notes: Vec<usize> = (0..options.annotations.len()).collect();
         notes.sort_by_key(|&i| options.annotations[i].step);
         Formatter {
             machine,
-            mode,
             dialect,
             options,
             sink,
@@ -506,6 +615,11 @@ impl<'a> Formatter<'a> {
             feed_mode: "per-minute",
             notes,
             next_note: 0,
+            unit: unit_length(options.units),
+            length_register: 0,
+            length_off: false,
+            previous: None,
+            tcp_active: false,
         }
     }
 
@@ -572,34 +686,73 @@ impl<'a> Formatter<'a> {
         }
     }
 
-    /// The axis words of a position that differ from what was last written (all with `all`).
-    fn axis_words(&mut self, joints: &Joints, all: bool) -> Vec<Word> {
+    /// The decimals of axis `i` in the program's units (an axis's decimals are for the machine's
+    /// units: one more from mm to inch, one fewer the other way).
+    fn decimals(&self, i: usize) -> usize {
+        let d = usize::from(self.machine.axes[i].decimals);
+        match (self.machine.axes[i].kind, self.machine.units, self.options.units) {
+            (AxisKind::Linear, ProgramUnits::Mm, ProgramUnits::Inch) => d + 1,
+            (AxisKind::Linear, ProgramUnits::Inch, ProgramUnits::Mm) => d.saturating_sub(1),
+            _ => d,
+        }
+    }
+
+    /// Axis `i`'s value as written: a length in the program's units, an angle in degrees.
+    fn axis_value(&self, i: usize, value: f64) -> f64 {
+        match self.machine.axes[i].kind {
+            AxisKind::Linear => value / self.unit,
+            AxisKind::Rotary => value.to_degrees(),
+        }
+    }
+
+    /// A word of axis `i`.
+    fn word(&self, letter: &str, value: f64, decimals: usize) -> Word {
+        let mut text = String::with_capacity(12);
+        push_number(&mut text, value, decimals, self.dialect.explicit_plus);
+        Word { letter: letter.to_string(), value, text }
+    }
+
+    /// The words of the axes in `axes` whose text differs from what was last written (all of
+    /// them with `all`).
+    fn axis_words(&mut self, joints: &Joints, axes: AxisSet, all: bool) -> Vec<Word> {
         let mut words = Vec::with_capacity(self.machine.axes.len());
-        for (i, axis) in self.machine.axes.iter().enumerate() {
-            let value = match axis.kind {
-                AxisKind::Linear => joints[i],
-                AxisKind::Rotary => joints[i].to_degrees(),
-            };
-            let mut text = String::with_capacity(12);
-            push_number(&mut text, value, usize::from(axis.decimals), self.dialect.explicit_plus);
-            if all || self.written[i].as_deref() != Some(text.as_str()) {
-                self.written[i] = Some(text.clone());
-                words.push(Word { letter: axis.letter.clone(), value, text });
+        for i in (0..self.machine.axes.len()).filter(|&i| axes.contains(i)) {
+            let word = self.word(&self.machine.axes[i].letter, self.axis_value(i, joints[i]), self.decimals(i));
+            if all || self.written[i].as_deref() != Some(word.text.as_str()) {
+                self.written[i] = Some(word.text.clone());
+                words.push(word);
             }
         }
         words
     }
 
-    /// Tool tip and vector in the part frame (TCP mode).
-    fn tcp_words(&mut self, pose: &Pose) -> Vec<Word> {
+    /// Tool tip and vector in the part frame (TCP mode); of `axes`, the tip coordinates of the
+    /// linear axes in it and the vector if a rotary is.
+    fn tcp_words(&mut self, pose: &Pose, axes: AxisSet) -> Vec<Word> {
         let (i, j, k) = match self.dialect.tcp {
             TcpStyle::Traori => ("A3", "B3", "C3"),
             TcpStyle::G43_5 => ("I", "J", "K"),
             _ => ("TX", "TY", "TZ"),
         };
-        let p = pose.tip;
+        let p = pose.tip / self.unit;
         let a = pose.axis;
-        let entries = [("X", p.x, 4usize), ("Y", p.y, 4), ("Z", p.z, 4), (i, a.x, 7), (j, a.y, 7), (k, a.z, 7)];
+        let tip_decimals = if self.options.units == ProgramUnits::Inch { 5 } else { 4 };
+        let entries = [
+            ("X", p.x, tip_decimals),
+            ("Y", p.y, tip_decimals),
+            ("Z", p.z, tip_decimals),
+            (i, a.x, 7),
+            (j, a.y, 7),
+            (k, a.z, 7),
+        ];
+        let linear = &self.machine.chain.linear;
+        let moves = |slot: usize| {
+            if slot < 3 {
+                linear.get(slot).is_none_or(|&axis| axes.contains(axis))
+            } else {
+                (0..self.machine.axes.len()).any(|x| axes.contains(x) && self.machine.axes[x].kind == AxisKind::Rotary)
+            }
+        };
         let texts: Vec<String> = entries
             .iter()
             .map(|&(_, value, decimals)| {
@@ -609,10 +762,14 @@ impl<'a> Formatter<'a> {
             })
             .collect();
         // Positions are modal; the vector is written whole whenever it changes.
-        let vector_changed = (3..6).any(|s| self.written[s].as_deref() != Some(texts[s].as_str()));
+        let vector_changed = (3..6).any(|s| self.written[s].as_deref() != Some(texts[s].as_str())) && moves(3);
         let mut words = Vec::with_capacity(9);
         for (slot, ((letter, value, _), text)) in entries.into_iter().zip(texts).enumerate() {
-            let changed = if slot < 3 { self.written[slot].as_deref() != Some(text.as_str()) } else { vector_changed };
+            let changed = if slot < 3 {
+                moves(slot) && self.written[slot].as_deref() != Some(text.as_str())
+            } else {
+                vector_changed
+            };
             if changed {
                 if self.dialect.tcp == TcpStyle::M128 && slot == 3 {
                     // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D compensation).
@@ -630,11 +787,46 @@ impl<'a> Formatter<'a> {
     }
 
     /// The words of a position in this mode: the tip and vector in TCP mode, else the axes.
-    fn position_words(&mut self, to: &Position, all: bool) -> Vec<Word> {
-        if self.mode == Mode::Tcp { self.tcp_words(&to.pose) } else { self.axis_words(&to.axes, all) }
+    fn position_words(&mut self, to: &Position, axes: AxisSet, all: bool) -> Vec<Word> {
+        if self.tcp_active { self.tcp_words(&to.pose, axes) } else { self.axis_words(&to.axes, axes, all) }
     }
 
-    fn block(&mut self, kind: &BlockKind) {
+    /// The length offset on again before motion, where a machine-coordinate retract cancelled it.
+    fn length_on(&mut self) {
+        if self.length_off {
+            self.length_off = false;
+            let n = self.n();
+            let register = self.length_register;
+            self.push(Block::LengthOn { n, register });
+        }
+    }
+
+    /// The F word of a feed per minute or revolution, when it changes (with its note), after
+    /// the feed mode.
+    fn feed(&mut self, feed: FeedWord, note: Option<&str>, always: bool) -> (Option<String>, Option<String>) {
+        let (mode, value, decimals) = match feed {
+            FeedWord::InverseTime(f) => ("inverse-time", f, self.dialect.feed_decimals.max(3)),
+            FeedWord::PerMinute(f) => ("per-minute", f / self.unit, self.dialect.feed_decimals),
+            FeedWord::PerRevolution(f) => ("per-revolution", f / self.unit, self.dialect.feed_decimals.max(4)),
+        };
+        self.set_feed_mode(mode);
+        let mut text = String::new();
+        push_number(&mut text, value, decimals, false);
+        if !always && self.last_feed.as_deref() == Some(text.as_str()) {
+            return (None, None);
+        }
+        self.last_feed = Some(text.clone());
+        (Some(text), note.map(|t| clean_comment(self.dialect, t)))
+    }
+
+    fn block(&mut self, block: &postpro_motion::Block) {
+        self.kind(&block.kind);
+        if let Some(end) = block.end() {
+            self.previous = Some(*end);
+        }
+    }
+
+    fn kind(&mut self, kind: &BlockKind) {
         match kind {
             BlockKind::Comment(text) => self.comment(text),
             BlockKind::Insert(text) => {
@@ -643,24 +835,53 @@ impl<'a> Formatter<'a> {
             }
             BlockKind::Operation(name) if !name.is_empty() => self.comment(&format!("operation: {name}")),
             BlockKind::Operation(_) => {}
-            BlockKind::Rapid(to) => {
+            BlockKind::WorkOffset(offset) => match self.dialect.work_offset(offset) {
+                Ok(offset) => {
+                    let n = self.n();
+                    self.push(Block::WorkOffset { n, offset });
+                }
+                Err(e) => {
+                    if self.failed.is_none() {
+                        self.failed = Some(e);
+                    }
+                }
+            },
+            BlockKind::Rapid(rapid) => {
                 // Before anything the step writes (or where it would, when it writes nothing).
-                self.notes_upto(to.step);
-                let words = self.position_words(to, false);
+                self.notes_upto(rapid.to.step);
+                self.length_on();
+                let words = self.position_words(&rapid.to, rapid.axes, false);
                 if !words.is_empty() {
                     let n = self.n();
                     self.push(Block::Rapid { n, words });
                 }
             }
+            BlockKind::MachineRetract(retract) => {
+                let i = retract.axis;
+                let word = self.word(&self.machine.axes[i].letter, retract.value / self.unit, self.decimals(i));
+                // Where the axis is now, in the program's frame, is not what was written.
+                self.written[i] = None;
+                if self.tcp_active {
+                    self.written.iter_mut().take(3).for_each(|w| *w = None);
+                }
+                self.length_off = self.dialect.machine_retract_cancels_length;
+                let n = self.n();
+                self.push(Block::MachineRetract { n, words: vec![word] });
+            }
             BlockKind::Linear(linear) => self.linear(linear),
+            BlockKind::Arc(arc) => self.arc(arc),
             BlockKind::Spline(spline) => self.spline(spline),
             BlockKind::ToolChange(t) => {
                 let n = self.n();
+                self.length_register = t.length_register;
+                self.length_off = false;
                 self.push(Block::ToolChange {
                     n,
                     number: t.number,
-                    name: t.name.clone(),
+                    name: t.name.as_deref().map(|name| clean_comment(self.dialect, name)),
                     offset: t.length_register,
+                    radius_register: t.radius_register,
+                    length: t.length.map(|l| length_text(l, self.options.units, 3)),
                     length_compensation: t.length_compensation,
                 });
                 // After a tool change every axis is written again.
@@ -706,12 +927,16 @@ impl<'a> Formatter<'a> {
                 let n = self.n();
                 self.push(Block::OptionalStop { n });
             }
-            BlockKind::TcpOn => {
+            BlockKind::TcpOn { length_register } => {
+                self.tcp_active = true;
                 self.written.iter_mut().for_each(|w| *w = None);
+                self.length_off = false;
                 let n = self.n();
-                self.push(Block::TcpOn { n });
+                self.push(Block::TcpOn { n, length_register: *length_register });
             }
             BlockKind::TcpOff => {
+                self.tcp_active = false;
+                self.written.iter_mut().for_each(|w| *w = None);
                 let n = self.n();
                 self.push(Block::TcpOff { n });
             }
@@ -720,37 +945,71 @@ impl<'a> Formatter<'a> {
 
     fn linear(&mut self, linear: &postpro_motion::Linear) {
         self.notes_upto(linear.to.step);
-        match linear.feed {
-            FeedWord::InverseTime(f) => {
-                self.set_feed_mode("inverse-time");
-                let words = self.axis_words(&linear.to.axes, true);
-                let mut text = String::new();
-                push_number(&mut text, f, self.dialect.feed_decimals.max(3), false);
-                let note = linear.note.as_deref().map(|t| clean_comment(self.dialect, t));
-                let n = self.n();
-                self.push(Block::Linear { n, words, feed: Some(text), note });
-            }
-            FeedWord::PerMinute(value) | FeedWord::PerRevolution(value) => {
-                let mode = if matches!(linear.feed, FeedWord::PerMinute(_)) { "per-minute" } else { "per-revolution" };
-                self.set_feed_mode(mode);
-                let mut text = String::new();
-                push_number(&mut text, value, self.dialect.feed_decimals, false);
-                let mut note = None;
-                let feed = (self.last_feed.as_deref() != Some(text.as_str())).then(|| {
-                    self.last_feed = Some(text.clone());
-                    note = linear.note.as_deref().map(|t| clean_comment(self.dialect, t));
-                    text
-                });
-                let words = self.position_words(&linear.to, false);
-                if words.is_empty() && feed.is_none() {
-                    return;
-                }
-                let n = self.n();
-                self.push(Block::Linear { n, words, feed, note });
-            }
+        self.length_on();
+        let inverse = matches!(linear.feed, FeedWord::InverseTime(_));
+        let (feed, note) = self.feed(linear.feed, linear.note.as_deref(), inverse);
+        let words = self.position_words(&linear.to, AxisSet::ALL, inverse);
+        if words.is_empty() && feed.is_none() {
+            return;
         }
+        let n = self.n();
+        self.push(Block::Linear { n, words, feed, note });
     }
 
+    /// A circular arc: the end point's words, the centre relative to the start (and absolute,
+    /// for Heidenhain), the sense, the turns.
+    fn arc(&mut self, arc: &postpro_motion::Arc) {
+        self.notes_upto(arc.to.step);
+        self.length_on();
+        let [a, b, normal] = arc.plane.axes();
+        let letters = ["X", "Y", "Z"];
+        let offsets = ["I", "J", "K"];
+        // The start and the end in the program's frame (the tip in TCP mode), program units.
+        let linear = self.machine.chain.linear.clone();
+        let tcp = self.tcp_active;
+        let frame_point = |f: &Self, p: &Position| -> [f64; 3] {
+            let v = |c: usize| if tcp { p.pose.tip[c] } else { linear.get(c).map_or(0.0, |&i| p.axes[i]) };
+            [v(0) / f.unit, v(1) / f.unit, v(2) / f.unit]
+        };
+        let start = self.previous.map_or([0.0; 3], |p| frame_point(self, &p));
+        let end = frame_point(self, &arc.to);
+        let decimals = |f: &Self, c: usize| {
+            if tcp {
+                if f.options.units == ProgramUnits::Inch { 5 } else { 4 }
+            } else {
+                f.decimals(linear.get(c).copied().unwrap_or(c))
+            }
+        };
+        let center = arc.center.map(|v| v / self.unit);
+        let center_words =
+            [a, b].iter().map(|&c| self.word(offsets[c], center[c] - start[c], decimals(self, c))).collect();
+        let center_absolute = [a, b].iter().map(|&c| self.word(letters[c], center[c], decimals(self, c))).collect();
+        let rise = Some(self.word(letters[normal], end[normal] - start[normal], decimals(self, normal)))
+            .filter(|w| w.text.trim_start_matches(['+', '-']).chars().any(|c| c != '0' && c != '.'));
+        let inverse = matches!(arc.feed, FeedWord::InverseTime(_));
+        let (feed, note) = self.feed(arc.feed, arc.note.as_deref(), inverse);
+        // The end point in the linear axes only: a rotary word in a G2 block would make it a
+        // helix about that axis.
+        let count = self.machine.axes.len();
+        let linear_axes = AxisSet::of(count, |i| self.machine.axes[i].kind == AxisKind::Linear);
+        let words = self.position_words(&arc.to, linear_axes, true);
+        let mut sweep = String::new();
+        push_number(&mut sweep, arc.sweep.to_degrees(), 3, false);
+        let n = self.n();
+        self.push(Block::Arc {
+            n,
+            plane: arc.plane,
+            clockwise: arc.clockwise,
+            words,
+            center: center_words,
+            center_absolute,
+            turns: arc.turns,
+            sweep,
+            rise,
+            feed,
+            note,
+        });
+    }
     /// A B-spline run: `BSPLINE`, its control points with their `PL`, back to `G1`; the
     /// annotations of its steps where the motion program places them.
     fn spline(&mut self, spline: &postpro_motion::Spline) {
@@ -779,15 +1038,17 @@ impl<'a> Formatter<'a> {
             }
         };
         upto(self, 0);
+        self.length_on();
         let mut feed = String::new();
-        push_number(&mut feed, spline.feed, self.dialect.feed_decimals, false);
+        push_number(&mut feed, spline.feed / self.unit, self.dialect.feed_decimals, false);
         let n = self.n();
         self.push(Block::BsplineOn { n, degree: postpro_kin::bspline::DEGREE, feed });
         for (k, control) in spline.curve.control.iter().enumerate().skip(1) {
             upto(self, k);
-            let words = self.axis_words(control, true);
+            let words = self.axis_words(control, AxisSet::ALL, true);
             let mut pl = String::new();
-            push_number(&mut pl, spline.curve.pl(k), 4, false);
+            // The knot intervals are lengths of the tool tip's path: in the program's units.
+            push_number(&mut pl, spline.curve.pl(k) / self.unit, 4, false);
             let n = self.n();
             self.push(Block::ControlPoint { n, words, pl });
         }

@@ -74,8 +74,8 @@ pub fn write_program(
     env.set_keep_trailing_newline(true);
     env.add_template(name, source).map_err(err)?;
     let template = env.get_template(name).map_err(err)?;
-    let header = header(motion, machine, dialect, options);
-    let tools = tools(motion);
+    let header = header(motion, machine, dialect, options)?;
+    let tools = tools(motion, dialect, options.units);
     let context = minijinja::context! {
         header => Value::from_serialize(&header),
         tools => Value::from_serialize(&tools),

@@ -35,6 +35,7 @@ struct Options {
 impl Options {
     fn emit(&self) -> postpro_emit::Options {
         postpro_emit::Options {
+            units: postpro_machine::model::ProgramUnits::Mm,
             program_name: self.program_name.clone(),
             source_name: self.source_name.clone(),
             block_numbers: self.block_numbers,
@@ -125,6 +126,20 @@ struct Fixture {
     solved: Solved,
     kin: Box<dyn Kinematics>,
     machine: Machine,
+}
+
+impl Fixture {
+    /// The work offset's frame of the programs in `mode`.
+    fn frame(&self, mode: Mode) -> postpro_motion::WorkFrame {
+        postpro_motion::work_frame(self.kin.as_ref(), mode)
+    }
+
+    /// The solved steps with their axis values as the program writes them (the work offset's
+    /// frame of `mode`).
+    fn written(&self, mode: Mode) -> Vec<Step> {
+        let frame = self.frame(mode);
+        self.solved.steps.iter().map(|s| Step { joints: frame.apply(&s.joints), ..*s }).collect()
+    }
 }
 
 fn fixture() -> Fixture {
@@ -239,7 +254,9 @@ fn read_back(text: &str, letters: &[String]) -> ReadBack {
     for line in text.lines() {
         let code = line.split(['(', ';']).next().unwrap_or("");
         let mut moved = false;
-        for token in code.split_whitespace() {
+        // A retract in machine coordinates is not a position of the program's frame.
+        let machine_frame = code.split_whitespace().any(|t| matches!(t, "G53" | "SUPA" | "M91"));
+        for token in code.split_whitespace().filter(|_| !machine_frame) {
             let (letter, number) = match token.split_once('=') {
                 Some((l, n)) => (l, n),
                 None => token.split_at(token.find(|c: char| !c.is_ascii_alphabetic()).unwrap_or(token.len())),
@@ -313,7 +330,8 @@ fn at(state: &HashMap<String, f64>, words: &[(String, f64)]) -> bool {
 /// Checks the place of every annotation of `options` in its program; returns how many stand in
 /// a spline the fit refined (more control points than points).
 fn check(text: &str, f: &Fixture, d: &Dialect, options: &Options, label: &str) -> usize {
-    let (steps, mode) = (&f.solved.steps, options.mode);
+    let written = f.written(options.mode);
+    let (steps, mode) = (&written, options.mode);
     let letters: Vec<String> = position(&steps[0], mode, &f.machine).into_iter().map(|(l, _)| l).collect();
     let back = read_back(text, &letters);
     let lines: Vec<&str> = text.lines().collect();
@@ -571,7 +589,9 @@ fn a_bspline_run_written_as_g1_keeps_its_linearization_points() {
 
         let letters: Vec<String> = f.machine.axes.iter().map(|a| a.letter.clone()).collect();
         let back = read_back(&text, &letters);
-        let pos = |k: usize| position(&steps[k], Mode::Bspline, &f.machine);
+        let written = f.written(Mode::Bspline);
+        let frame = f.frame(Mode::Bspline);
+        let pos = |k: usize| position(&written[k], Mode::Bspline, &f.machine);
         let joints = |i: usize| {
             let values: Vec<f64> = f
                 .machine
@@ -582,7 +602,7 @@ fn a_bspline_run_written_as_g1_keeps_its_linearization_points() {
                     if a.kind == AxisKind::Rotary { v.to_radians() } else { v }
                 })
                 .collect();
-            Joints::from_slice(&values)
+            frame.unapply(&Joints::from_slice(&values))
         };
         // Each G1 block outside the splines is the block of the next step at its position.
         let mut next = 0;

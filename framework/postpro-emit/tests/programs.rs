@@ -41,6 +41,7 @@ fn program(relative: &str, machine_name: &str, mode: Mode, dialect_name: Option<
     let solved = solve(kin.as_ref(), &path, &m.policy).unwrap_or_else(|e| panic!("{relative} on {machine_name}: {e}"));
     let d = dialect(dialect_name.unwrap_or(&m.dialect)).expect("dialect");
     let options = Options {
+        units: postpro_machine::model::ProgramUnits::Mm,
         program_name: "TEST".into(),
         source_name: relative.into(),
         block_numbers: false,
@@ -120,6 +121,10 @@ fn read_back(text: &str, machine: &Machine) -> Vec<Block> {
     let mut out = Vec::new();
     for line in text.lines() {
         let code = line.split(['(', ';']).next().unwrap_or("");
+        // A retract in machine coordinates is not a position of the program's frame.
+        if code.split_whitespace().any(|t| t == "G53") {
+            continue;
+        }
         let mut motion = None;
         let mut f = None;
         for token in code.split_whitespace() {
@@ -169,9 +174,11 @@ fn the_program_read_back_passes_through_every_cl_point() {
         let text = program(EXAMPLES[0], machine_name, Mode::G1, Some("linuxcnc"));
         let blocks = read_back(&text, &m);
         let targets = cl_points(&path);
+        // The written values are in the work offset's frame: back to the kinematics'.
+        let frame = postpro_motion::work_frame(kin.as_ref(), Mode::G1);
         let mut next = 0;
         for b in &blocks {
-            let tip = kin.forward(&Joints::from_slice(&b.joints)).tip;
+            let tip = kin.forward(&frame.unapply(&Joints::from_slice(&b.joints))).tip;
             if next < targets.len() && (tip - targets[next].0).norm() < 0.01 {
                 next += 1;
             }
@@ -192,12 +199,13 @@ fn inverse_time_f_times_delta_t_is_one() {
         let text = program(EXAMPLES[0], machine_name, Mode::InverseTime, Some("linuxcnc"));
         assert!(text.contains("G94"), "G94 restored after the program");
         let blocks = read_back(&text, &m);
+        let frame = postpro_motion::work_frame(kin.as_ref(), Mode::InverseTime);
         let mut next = 0;
         let mut previous: Option<Point3<f64>> = None;
         let mut checked = 0;
         let mut clamped = 0;
         for b in &blocks {
-            let tip = kin.forward(&Joints::from_slice(&b.joints)).tip;
+            let tip = kin.forward(&frame.unapply(&Joints::from_slice(&b.joints))).tip;
             // The CL move this block belongs to: the next CL point not yet reached.
             let feed = targets.get(next).and_then(|t| t.1);
             if b.feed_move {
@@ -254,6 +262,7 @@ fn unsupported_modes_are_errors() {
     let kin = solver_for(&m);
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let options = Options {
+        units: postpro_machine::model::ProgramUnits::Mm,
         program_name: "T".into(),
         source_name: "t".into(),
         block_numbers: false,
@@ -285,6 +294,7 @@ fn streaming_equals_the_whole_rendering() {
             for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp, Mode::Bspline] {
                 for block_numbers in [false, true] {
                     let options = Options {
+                        units: postpro_machine::model::ProgramUnits::Mm,
                         program_name: "TEST".into(),
                         source_name: "t.cl".into(),
                         block_numbers,
@@ -385,6 +395,7 @@ fn user_templates_are_strict_and_lines_are_bounded() {
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let d = dialect("fanuc").expect("dialect");
     let options = Options {
+        units: postpro_machine::model::ProgramUnits::Mm,
         program_name: "T".into(),
         source_name: "t".into(),
         block_numbers: false,
@@ -407,7 +418,8 @@ fn user_templates_are_strict_and_lines_are_bounded() {
     assert!(String::from_utf8(ok).expect("UTF-8").starts_with("T "));
 }
 
-/// A feed beyond the controller's range is written at the limit, with a note on the block.
+/// A feed beyond the machine's (or the controller's) range is written at the limit, with a note on
+/// the block.
 #[test]
 fn a_feed_out_of_range_is_limited_and_noted() {
     let src = postpro_cl::Source::new("fast.cl", "FEDRAT/MMPM,150000\nGOTO/0,0,0\nGOTO/10,0,0\nGOTO/20,0,0\n");
@@ -417,6 +429,7 @@ fn a_feed_out_of_range_is_limited_and_noted() {
     let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
     let d = dialect("fanuc").expect("dialect");
     let options = Options {
+        units: postpro_machine::model::ProgramUnits::Mm,
         program_name: "T".into(),
         source_name: "fast.cl".into(),
         block_numbers: false,
@@ -429,5 +442,8 @@ fn a_feed_out_of_range_is_limited_and_noted() {
         builtin_template(d.name).expect("template"),
     )
     .expect("renders");
-    assert!(text.contains("F99999.000 (feed 150000 mm/min out of the controller's range 0.001…99999)"), "{text}");
+    // The machine's feed_max (10 m/min) is below the controller's largest F: it wins.
+    let note = "F10000.000 (feed 150000 mm/min limited to 10000 mm/min [the machine's range 1…10000 mm/min])";
+    assert!(text.contains(note), "{text}");
+    assert_eq!(text.matches("F10000").count(), 1, "the F word once, modal: {text}");
 }

@@ -3,12 +3,12 @@
 //! Two dialects are written:
 //!
 //! * **Siemens NX CLSF** ([`NxClsfWriter`], [`nx_clsf`]): `TOOL PATH/…`, `TLDATA/…`,
-//!   `MSYS/…`, `LOAD/TOOL…`, `SPINDL/RPM,…`, a one-shot `RAPID` line before every rapid
+//!   `MSYS/…`, `LOAD/TOOL…`, `SPINDL/RPM,…`, `COOLNT/FLOOD`, a one-shot `RAPID` line before every rapid
 //!   `GOTO`, `FEDRAT/MMPM,f` whenever the feed changes, `GOTO/x,y,z,i,j,k` (4 and 7
 //!   decimals) or, as NX does, `GOTO/x,y,z` when the printed tool axis equals the
 //!   previous one, `PAINT/…` display records, and `END-OF-PATH`.
 //! * **CATIA V5 APT** ([`catia_apt`]): `$$` banner, `PARTNO`, `MULTAX`, `CUTTER/` with
-//!   seven values, `LOADTL`, `SPINDL/ n,RPM,CLW`, `FEDRAT/ f,MMPM`, `RAPID`, and
+//!   seven values, `LOADTL`, `SPINDL/ n,RPM,CLW`, `COOLNT/ON`, `FEDRAT/ f,MMPM`, `RAPID`, and
 //!   `GOTO  /` records that always carry six fixed-width values. Records longer than 72
 //!   columns are wrapped the way CATIA does it: the first 71 characters, a `$` in column
 //!   72, and the rest of the record on the next line — the break falls at a fixed column,
@@ -101,7 +101,7 @@ impl NxClsfWriter {
     }
 
     /// Writes the start of a variable-contour tool path with a ball-end mill: `TOOL PATH`,
-    /// `TLDATA`, `MSYS`, `PAINT`, `LOAD/TOOL` and `SPINDL` records.
+    /// `TLDATA`, `MSYS`, `PAINT`, `LOAD/TOOL`, `SPINDL` and `COOLNT` records.
     pub fn begin_path(&mut self, params: &ToolpathParams) {
         let b = &mut self.buf;
         line(b, format_args!("TOOL PATH/VARIABLE_CONTOUR,TOOL,{}", nx_tool_name(params.tool_diameter())));
@@ -120,6 +120,7 @@ impl NxClsfWriter {
         b.push_str("PAINT/SPEED,10\n");
         b.push_str("LOAD/TOOL,1,ADJUST,1\n");
         line(b, format_args!("SPINDL/RPM,{},CLW", params.spindle_rpm));
+        b.push_str("COOLNT/FLOOD\n");
     }
 
     /// Writes one move: `PAINT/COLOR` when the motion type changes, `RAPID` before a rapid
@@ -273,6 +274,7 @@ pub fn catia_apt(toolpath: &Toolpath, header: &CatiaHeader) -> String {
     b.push_str("LOADTL/1\n");
     b.push_str("$$ TOOLCHANGEEND\n");
     line(&mut b, format_args!("SPINDL/{:>11},RPM,CLW", fixed(f64::from(p.spindle_rpm), 4)));
+    b.push_str("COOLNT/ON\n");
     let mut last_feed: Option<String> = None;
     for mv in toolpath.moves() {
         match mv.feed {
@@ -287,6 +289,7 @@ pub fn catia_apt(toolpath: &Toolpath, header: &CatiaHeader) -> String {
         }
         push_catia_record(&mut b, &catia_goto(&mv.tip, &mv.axis));
     }
+    b.push_str("COOLNT/OFF\n");
     b.push_str("SPINDL/OFF\n");
     line(&mut b, format_args!("$$ End of generation of : {}", header.operation));
     b.push_str("END\n");

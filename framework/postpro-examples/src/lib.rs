@@ -174,7 +174,7 @@ pub fn hypar_3plus2(step: f64) -> String {
          $$ SURFACE   : hyperbolic paraboloid z = (y^2 - x^2)/500 (ball centres), x,y in [-50,50]\n\
          $$ PATHS     : 3+2, one per ruling y = x + c, c = {first} .. -{first} by {step}, zig-zag, tool along +z\n\
          TOOL PATH/HYPAR_RULINGS_3PLUS2,TOOL,BALL_D16\nTLDATA/MILL,16.0000,8.0000,75.0000,0.0000,0.0000\n\
-         LOAD/TOOL,1\nSPINDL/RPM,24000,CLW\nMULTAX\n",
+         LOAD/TOOL,1\nSPINDL/RPM,24000,CLW\nCOOLNT/FLOOD\nMULTAX\n",
         first = 100.0 - step
     );
     let paths = ((200.0 / step).round() as usize).saturating_sub(1);

@@ -67,6 +67,7 @@ pub(crate) fn machine(rotaries: &[(&str, [f64; 3], [f64; 3], bool)], solver: Sol
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: 0.01,
             unwind: Some(2.0),
+            missing_feed: postpro_machine::model::MissingFeed::Error,
         },
         solver,
         clearance: Clearance::SafeZ(2000.0),

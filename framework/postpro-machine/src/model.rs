@@ -305,6 +305,18 @@ pub struct PolicyDefaults {
     /// next rapid (the equivalent angle nearest home is taken there); `None`: never unwound.
     /// A number of turns, not an angle.
     pub unwind: Option<f64>,
+    /// A feed move before any feed is programmed: an error, or a rapid with a warning.
+    pub missing_feed: MissingFeed,
+}
+
+/// What a feed move with no feed programmed before it becomes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MissingFeed {
+    /// An error naming the CL line: nothing is written.
+    #[default]
+    Error,
+    /// A rapid, with a warning naming the line.
+    Rapid,
 }
 
 /// Which IKT branch to prefer.

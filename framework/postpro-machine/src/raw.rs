@@ -256,6 +256,20 @@ pub struct Policy {
     /// Turns an endless rotary axis may wind before it is unwound at a rapid: `N turns`, a bare
     /// number of turns, or `off` (default [`DEFAULT_UNWIND_TURNS`] turns).
     pub unwind: Unwind,
+    /// A feed move before any feed is programmed: `error` (default) or `rapid` (written as a
+    /// rapid, with a warning).
+    pub missing_feed: MissingFeed,
+}
+
+/// `missing_feed:`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MissingFeed {
+    /// An error naming the line.
+    #[default]
+    Error,
+    /// A rapid, with a warning.
+    Rapid,
 }
 
 /// The turns an endless rotary axis may wind from its home position by default.
@@ -271,6 +285,7 @@ impl Default for Policy {
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: Length(0.01),
             unwind: Unwind::Turns(DEFAULT_UNWIND_TURNS),
+            missing_feed: MissingFeed::Error,
         }
     }
 }

@@ -641,6 +641,10 @@ impl Validator<'_> {
             on_discontinuity,
             linearization_tolerance: p.linearization_tolerance.0,
             unwind,
+            missing_feed: match p.missing_feed {
+                raw::MissingFeed::Error => crate::model::MissingFeed::Error,
+                raw::MissingFeed::Rapid => crate::model::MissingFeed::Rapid,
+            },
         })
     }
 

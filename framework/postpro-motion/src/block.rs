@@ -5,6 +5,7 @@
 use postpro_cl::{Coolant, Span};
 use postpro_kin::bspline;
 use postpro_kin::{Joints, Pose, StepKind};
+use postpro_machine::setup::WorkOffset;
 use serde::Serialize;
 
 /// How motion is written.
@@ -40,17 +41,99 @@ impl Mode {
     }
 }
 
+/// A set of axes (indices into `Machine::axes`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AxisSet(u8);
+
+impl AxisSet {
+    /// Every axis.
+    pub const ALL: AxisSet = AxisSet(u8::MAX);
+
+    /// The axes `i` for which `keep(i)` holds, among the first `count`.
+    pub fn of(count: usize, keep: impl Fn(usize) -> bool) -> AxisSet {
+        AxisSet((0..count.min(8)).filter(|&i| keep(i)).fold(0, |m, i| m | 1 << i))
+    }
+
+    /// True when axis `i` is in the set.
+    pub fn contains(self, i: usize) -> bool {
+        i < 8 && self.0 & (1 << i) != 0
+    }
+}
+
 /// One position of the machine.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Position {
-    /// The axis values in `Machine::axes` order (mm, rad; rotary angles unwound).
+    /// The axis values in `Machine::axes` order, in the work-offset frame (mm, rad; rotary angles
+    /// unwound).
     pub axes: Joints,
     /// The tool pose these axis values give, in the part frame.
     pub pose: Pose,
-    /// The solved step it is (an index into `Solved::steps`); annotations name steps.
+    /// The solved step it is (an index into `Solved::steps`); annotations name steps. A position
+    /// postpro adds (a retract, a re-orientation, an approach) has the step it leads to.
     pub step: usize,
-    /// Why the step is there.
+    /// Why the step is there: `Retract` for the retracts and approaches postpro adds at the
+    /// clearance, `Reorient` for the rotation between them.
     pub kind: StepKind,
+}
+
+/// A rapid traverse.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rapid {
+    /// Where it ends (every axis: those it does not move keep their values).
+    pub to: Position,
+    /// The axes it moves (and writes): all, or the rotaries alone at the clearance, or the axes
+    /// across the spindle before the one along it on an approach.
+    pub axes: AxisSet,
+}
+
+/// The plane of a circular arc, in the axis space (the program's frame).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Plane {
+    /// X–Y, normal +Z (`G17`).
+    Xy,
+    /// Z–X, normal +Y (`G18`).
+    Zx,
+    /// Y–Z, normal +X (`G19`).
+    Yz,
+}
+
+impl Plane {
+    /// The indices (0 = X, 1 = Y, 2 = Z) of the plane's first and second axis and of its normal.
+    pub fn axes(self) -> [usize; 3] {
+        match self {
+            Plane::Xy => [0, 1, 2],
+            Plane::Zx => [2, 0, 1],
+            Plane::Yz => [1, 2, 0],
+        }
+    }
+}
+
+/// A circular arc (or helix) in a plane of the program's frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Arc {
+    /// Where it ends.
+    pub to: Position,
+    /// The plane.
+    pub plane: Plane,
+    /// The centre, in the program's frame (X, Y, Z of the linear axes; mm). On a helix its
+    /// coordinate along the plane's normal is that of the start.
+    pub center: [f64; 3],
+    /// Clockwise about the plane's normal (`G2`), else counter-clockwise (`G3`).
+    pub clockwise: bool,
+    /// Full turns besides the last, partial one.
+    pub turns: u32,
+    /// The angle swept (rad, > 0, full turns included).
+    pub sweep: f64,
+    /// Radius (mm).
+    pub radius: f64,
+    /// The F word.
+    pub feed: FeedWord,
+    /// A remark for the end of the line.
+    pub note: Option<String>,
+    /// The positions the controller passes through on the way, within the tolerance of the arc
+    /// (the points the CL arc was solved at), for the prediction.
+    pub via: Vec<Position>,
 }
 
 /// The F word of a feed move.
@@ -109,6 +192,10 @@ pub struct ToolCall {
     pub number: u32,
     /// Tool name, when known.
     pub name: Option<String>,
+    /// Radius-offset register (`D`).
+    pub radius_register: u32,
+    /// Tool length (mm), when known.
+    pub length: Option<f64>,
     /// Diameter (mm), when the CL file gives the tool's geometry before the change.
     pub diameter: Option<f64>,
     /// Corner radius (mm), likewise.
@@ -116,8 +203,20 @@ pub struct ToolCall {
     /// Length-offset register (`H`).
     pub length_register: u32,
     /// The CNC applies the tool length (`G43 H…`, `D…`): true when the axis values are those of
-    /// the spindle nose, false when they include the tool length already.
+    /// the spindle nose, false when they include the tool length already (a head machine in a
+    /// joint mode).
     pub length_compensation: bool,
+}
+
+/// Where the retracts to the clearance go: the spindle axis to a machine coordinate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MachineRetract {
+    /// Where the machine is afterwards, in the program's frame.
+    pub to: Position,
+    /// The axis (the linear axis along the spindle).
+    pub axis: usize,
+    /// Its value in machine coordinates (mm).
+    pub value: f64,
 }
 
 /// What a block is.
@@ -129,10 +228,16 @@ pub enum BlockKind {
     Insert(String),
     /// An operation of the CL file starts (its name, possibly empty).
     Operation(String),
-    /// Rapid traverse to a position.
-    Rapid(Position),
+    /// The work offset the program's coordinates are in.
+    WorkOffset(WorkOffset),
+    /// Rapid traverse.
+    Rapid(Rapid),
+    /// A retract of the spindle axis in machine coordinates (`G53`, `SUPA`, `M91`).
+    MachineRetract(MachineRetract),
     /// A feed move.
     Linear(Linear),
+    /// A circular arc.
+    Arc(Box<Arc>),
     /// A run of feed moves as one B-spline.
     Spline(Box<Spline>),
     /// A tool change.
@@ -158,8 +263,11 @@ pub enum BlockKind {
     Stop(Option<String>),
     /// Optional stop.
     OptionalStop,
-    /// Tool-centre-point control on.
-    TcpOn,
+    /// Tool-centre-point control on, with the length register of the tool in the spindle.
+    TcpOn {
+        /// Length-offset register (`H`).
+        length_register: u32,
+    },
     /// Tool-centre-point control off.
     TcpOff,
 }
@@ -177,8 +285,10 @@ impl Block {
     /// The position the machine is at after this block, when it moves.
     pub fn end(&self) -> Option<&Position> {
         match &self.kind {
-            BlockKind::Rapid(p) => Some(p),
+            BlockKind::Rapid(r) => Some(&r.to),
+            BlockKind::MachineRetract(r) => Some(&r.to),
             BlockKind::Linear(l) => Some(&l.to),
+            BlockKind::Arc(a) => Some(&a.to),
             BlockKind::Spline(s) => s.points.last(),
             _ => None,
         }

@@ -3,19 +3,28 @@
 //! Per mode: `g1` writes every step as a rapid or a feed move with the programmed feed;
 //! `inverse-time` gives every feed move F = 1/Δt with Δt = tip length / feed, splitting a block
 //! whose F would fall below the controller's minimum; `tcp` drops the points linearization added
-//! (the controller interpolates in the part frame) and switches tool-centre-point control on at
-//! the first motion; `bspline` queues each run of feed moves at one feed and writes it as one
-//! B-spline through its CL points, fitted within the linearization tolerance, or as feed moves
-//! through every step when it cannot be.
+//! (the controller interpolates in the part frame) and switches tool-centre-point control on
+//! before the first approach; `bspline` queues each run of feed moves at one feed and writes it as
+//! one B-spline through its CL points, fitted within the linearization tolerance, or as feed moves
+//! through every step when it cannot be. In every mode, a CL arc that is a circle of the program's
+//! frame is written as one (`arc`), and the program is framed as a shop runs it (`clearance`): the
+//! work offset, each tool's own offsets, retracts to the machine's clearance around tool changes
+//! and re-orientations, the rotaries turned alone up there, the approach across then down, and at
+//! the end spindle and coolant off, the retract and the rotaries home.
 
-use postpro_cl::{CutterComp, Delay, FeedPer, ItemKind, Motion, MoveKind, Spindle, SpindleUnit, TextKind, ToolPath};
-use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind, bspline};
-use postpro_machine::model::Machine;
+use postpro_cl::{
+    CutterComp, Delay, FeedPer, ItemKind, Motion, MoveKind, Span, Spindle, SpindleUnit, TextKind, ToolPath,
+};
+use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind, ToolLength, bspline};
+use postpro_machine::model::{AxisKind, Machine};
+use postpro_machine::setup::WorkOffset;
 
-use crate::block::{Block, BlockKind, FeedWord, Linear, Mode, Position, Spline, ToolCall};
-use crate::{MotionError, MotionSink, Program, Summary};
+use crate::block::{Arc, AxisSet, Block, BlockKind, FeedWord, Linear, Mode, Position, Rapid, Spline, ToolCall};
+use crate::frame::WorkFrame;
+use crate::tooling::Tooling;
+use crate::{MotionError, MotionSink, Program, Summary, Warning};
 
-/// What the motion program is built for.
+/// How the program writes what the dialect can and cannot say.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
     /// How motion is written.
@@ -23,17 +32,115 @@ pub struct Options {
     /// The controller's range of F in inverse time (1/min): a block whose F would fall below the
     /// minimum is split into equal parts; above the maximum F is limited, and said so.
     pub inverse_time_range: (f64, f64),
-    /// The controller's range of feeds per minute (mm/min): a feed beyond it is limited, and
-    /// said so.
+    /// The controller's range of feeds per minute (mm/min); the machine's own `feed_min` and
+    /// `feed_max` narrow it. A feed beyond it is limited, and said so.
     pub feed_range: (f64, f64),
+    /// How CL arcs are written.
+    pub arcs: Arcs,
+    /// Frame the program as a shop runs it: retracts to the machine's clearance around tool
+    /// changes, re-orientations and the end, the rotary axes turned alone there, the approach
+    /// across then down, the work offset. Off only for studies of the motion alone.
+    pub clearance: bool,
+}
+
+/// How CL arcs are written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arcs {
+    /// As circular interpolation wherever the arc is a circle in a plane of the program's frame.
+    Native {
+        /// The dialect writes several turns in one block (LinuxCNC `P`, Siemens `TURN`,
+        /// Heidenhain `CP IPA`); otherwise a helix is split into one block per turn.
+        turns: bool,
+        /// The planes it has: every one, or the X–Y plane only.
+        all_planes: bool,
+    },
+    /// Always as straight moves within the tolerance (`--arcs linear`).
+    Linear,
 }
 
 impl Options {
-    /// Options for `mode` with the controller's ranges unbounded: no feed limited, no block
-    /// split (for studies of the motion alone, and tests).
+    /// Options for `mode` with the controller's ranges unbounded (no feed limited, no block split),
+    /// arcs as straight moves and no clearance moves: the motion of the CL file alone, for
+    /// studies and tests.
     pub fn unbounded(mode: Mode) -> Options {
-        Options { mode, inverse_time_range: (0.0, f64::INFINITY), feed_range: (0.0, f64::INFINITY) }
+        Options {
+            mode,
+            inverse_time_range: (0.0, f64::INFINITY),
+            feed_range: (0.0, f64::INFINITY),
+            arcs: Arcs::Linear,
+            clearance: false,
+        }
     }
+}
+
+/// What the job adds to the machine: where the program's zero is, which offset holds it, the
+/// tools.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Job {
+    /// The frame the axis values are written in.
+    pub frame: WorkFrame,
+    /// The work offset that holds it.
+    pub work_offset: WorkOffset,
+    /// The tools and their changes.
+    pub tooling: Tooling,
+    /// The tool length the kinematics was solved with, per tool of `tooling` (mm): 0 where the
+    /// controller applies the length along the spindle.
+    pub kinematic_lengths: Vec<f64>,
+    /// The controller applies each tool's length (false on a head machine in a joint mode: the
+    /// axis values include it).
+    pub length_compensation: bool,
+}
+
+impl Job {
+    /// The job of a program with no set-up of its own, in `mode`: the work frame of the mode, the
+    /// work offset `work_offset`, the tools the CL file loads (the tool table's entries over them)
+    /// each with the length the machine needs, and the warnings about the tools. An error for a
+    /// tool whose length is needed and unknown (see [`crate::tooling::kinematic_lengths`]).
+    pub fn new(
+        kin: &dyn Kinematics,
+        path: &ToolPath,
+        mode: Mode,
+        table: Option<&postpro_machine::tools::ToolTable>,
+        work_offset: WorkOffset,
+    ) -> Result<(Job, Vec<Warning>), MotionError> {
+        let machine = kin.machine();
+        let (tooling, warnings) = crate::tooling::tooling(path, table);
+        let kinematic_lengths = crate::tooling::kinematic_lengths(machine, &tooling, mode).map_err(|tool| {
+            let change = tooling.changes.iter().find(|c| c.tool == tool);
+            MotionError::ToolLength {
+                span: change.map_or_else(Span::default, |c| crate::tooling::change_span(path, c)),
+                number: tooling.tools[tool].number,
+                machine: machine.name.clone(),
+            }
+        })?;
+        let job = Job {
+            frame: crate::frame::work_frame(kin, mode),
+            work_offset,
+            tooling,
+            kinematic_lengths,
+            length_compensation: machine.chain.tool.is_empty() || mode == Mode::Tcp,
+        };
+        Ok((job, warnings))
+    }
+
+    /// Where each tool's stretch of the tool path starts and the length it is solved with (for
+    /// `postpro_kin::solve_with_tools`).
+    pub fn lengths(&self) -> Vec<postpro_kin::LengthFrom> {
+        let t = &self.tooling;
+        t.changes
+            .iter()
+            .map(|c| postpro_kin::LengthFrom { item: c.item, length: self.kinematic_lengths[c.tool] })
+            .collect()
+    }
+}
+
+/// The motion program of a solved tool path with no set-up of its own and the controller's
+/// ranges unbounded: the motion alone, for studies of it (the prediction's tests and benchmarks).
+/// The tool path must have been solved with the job's tool lengths (`postpro_kin::solve` gives
+/// the machine definition's, which [`Job::new`] takes where the machine needs one).
+pub fn study(path: &ToolPath, solved: &Solved, kin: &dyn Kinematics, mode: Mode) -> Result<Program, MotionError> {
+    let (job, _) = Job::new(kin, path, mode, None, WorkOffset::default())?;
+    collect(path, solved, kin, &Options::unbounded(mode), &job)
 }
 
 /// Builds the whole motion program.
@@ -42,46 +149,68 @@ pub fn collect(
     solved: &Solved,
     kin: &dyn Kinematics,
     options: &Options,
+    job: &Job,
 ) -> Result<Program, MotionError> {
     let mut blocks = Vec::new();
-    let summary = build(path, solved, kin, options, &mut blocks)?;
-    Ok(Program { mode: options.mode, part: path.info.part_name.clone(), blocks, summary })
+    let summary = build(path, solved, kin, options, job, &mut blocks)?;
+    Ok(Program {
+        mode: options.mode,
+        part: path.info.part_name.clone(),
+        work_offset: job.work_offset,
+        origin: job.frame.describe(),
+        tools: job.tooling.tools.clone(),
+        blocks,
+        summary,
+    })
 }
 
 /// Builds the motion program of a solved tool path, handing each block to `sink` as it is made;
-/// returns the header's counts.
+/// returns the header's counts and what had to be said.
 pub fn build(
     path: &ToolPath,
     solved: &Solved,
     kin: &dyn Kinematics,
     options: &Options,
+    job: &Job,
     sink: &mut dyn MotionSink,
 ) -> Result<Summary, MotionError> {
-    let mut b = Builder::new(kin, options, sink);
+    let mut b = Builder::new(kin, options, job, sink);
     b.unknown = path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
     let mut k = 0; // next step
     let decisions = &solved.decisions;
     let mut d = 0; // next decision
-    for item in &path.items {
-        let motion = match &item.kind {
-            ItemKind::Move(m) => Some((m.motion, m.kind == MoveKind::Hole)),
-            ItemKind::Arc(a) => Some((a.motion, false)),
-            ItemKind::Nurbs(n) => Some((n.motion, false)),
-            _ => None,
-        };
-        match motion {
-            Some((motion, hole)) => {
-                // The steps of this item: every step up to its statement.
-                while k < solved.steps.len() && solved.steps[k].span.start <= item.span.start {
-                    while d < decisions.len() && decisions[d].step == k {
-                        b.decision(&decisions[d]);
-                        d += 1;
-                    }
-                    b.step(k, &solved.steps[k], motion, hole)?;
-                    k += 1;
-                }
+    for (i, item) in path.items.iter().enumerate() {
+        if let Some(change) = job.tooling.change_at(i) {
+            b.tool_change(item.span, change.tool)?;
+        }
+        let (motion, hole, arc) = match &item.kind {
+            ItemKind::Move(m) => (m.motion, m.kind == MoveKind::Hole, None),
+            ItemKind::Arc(a) => (a.motion, false, Some(a.as_ref())),
+            ItemKind::Nurbs(n) => (n.motion, false, None),
+            ItemKind::ToolChange(_) => continue,
+            _ => {
+                b.item(item.span, &item.kind);
+                continue;
             }
-            None => b.item(item.span, &item.kind),
+        };
+        // The steps of this item: every step up to its statement.
+        let first = k;
+        while k < solved.steps.len() && solved.steps[k].span.start <= item.span.start {
+            k += 1;
+        }
+        let steps = &solved.steps[first..k];
+        if let Some(arc) = arc
+            && let Some(written) = b.arc(arc, item.span, first, steps, motion, &decisions[d..])?
+        {
+            d += written;
+            continue;
+        }
+        for (j, step) in steps.iter().enumerate() {
+            while d < decisions.len() && decisions[d].step == first + j {
+                b.decision(&decisions[d]);
+                d += 1;
+            }
+            b.step(first + j, step, motion, hole)?;
         }
     }
     while k < solved.steps.len() {
@@ -93,6 +222,7 @@ pub fn build(
         cl_points: solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count(),
         linearized_points: solved.inserted,
         decisions: decisions.len(),
+        warnings: std::mem::take(&mut b.warnings),
     })
 }
 
@@ -112,18 +242,37 @@ struct Held {
     /// The run position of the block it goes before.
     at: usize,
     text: String,
-    span: postpro_cl::Span,
+    span: Span,
 }
 
-struct Builder<'a> {
-    kin: &'a dyn Kinematics,
-    machine: &'a Machine,
-    options: &'a Options,
+pub(crate) struct Builder<'a> {
+    /// The machine's kinematics (with its definition's tool length).
+    pub(crate) base: &'a dyn Kinematics,
+    /// The kinematics of the tool in the spindle.
+    pub(crate) kin: ToolLength<'a>,
+    pub(crate) machine: &'a Machine,
+    pub(crate) options: &'a Options,
+    pub(crate) job: &'a Job,
     sink: &'a mut dyn MotionSink,
-    last_tip: Option<nalgebra::Point3<f64>>,
-    previous: Option<Joints>,
-    tcp_on: bool,
+    pub(crate) last_tip: Option<nalgebra::Point3<f64>>,
+    /// Where the machine is (the kinematics' values); `None` where it is not known (at the start,
+    /// after a tool change: the linear axes at the tool change position).
+    pub(crate) current: Option<Joints>,
+    /// The spindle axis is at the clearance (after a retract or a tool change).
+    pub(crate) at_clearance: bool,
+    pub(crate) tcp_on: bool,
+    /// The tool in the spindle (an index into the job's tools).
+    pub(crate) tool: Option<usize>,
+    work_offset_written: bool,
     spindle_rpm: Option<f64>,
+    spindle_on: bool,
+    coolant_on: bool,
+    spindle_seen: bool,
+    coolant_seen: bool,
+    /// The first feed move, for the warnings about what the CL file never says.
+    first_feed: Option<Span>,
+    /// Feeds limited to the machine's range, each said once.
+    limited: Vec<f64>,
     /// Bspline mode: the feed moves waiting to be fitted, linearization points included.
     run: Vec<Queued>,
     /// The position before the run: the last step written or queued that is not a
@@ -136,41 +285,84 @@ struct Builder<'a> {
     /// Words the reader does not know: carried as comments.
     unknown: std::collections::BTreeSet<String>,
     /// The span of the item being written (for blocks that have no step of their own).
-    span: postpro_cl::Span,
-    /// The tool geometry given since the last tool change, for the next one.
-    shape: Option<postpro_cl::ToolShape>,
+    pub(crate) span: Span,
     /// TCP mode: the linearization points since the last position written.
     via: Vec<Position>,
+    pub(crate) warnings: Vec<Warning>,
 }
 
 impl<'a> Builder<'a> {
-    fn new(kin: &'a dyn Kinematics, options: &'a Options, sink: &'a mut dyn MotionSink) -> Self {
+    fn new(kin: &'a dyn Kinematics, options: &'a Options, job: &'a Job, sink: &'a mut dyn MotionSink) -> Self {
         Builder {
-            kin,
+            base: kin,
+            kin: ToolLength::new(kin, kin.machine().chain.tool_length),
             machine: kin.machine(),
             options,
+            job,
             sink,
             last_tip: None,
-            previous: None,
+            current: None,
+            at_clearance: false,
             tcp_on: false,
+            tool: None,
+            work_offset_written: false,
             spindle_rpm: None,
+            spindle_on: false,
+            coolant_on: false,
+            spindle_seen: false,
+            coolant_seen: false,
+            first_feed: None,
+            limited: Vec::new(),
             run: Vec::new(),
             run_start: None,
             last_step: None,
             held: Vec::new(),
             unknown: std::collections::BTreeSet::new(),
-            span: postpro_cl::Span::default(),
-            shape: None,
+            span: Span::default(),
             via: Vec::new(),
+            warnings: Vec::new(),
         }
     }
 
-    fn push(&mut self, span: postpro_cl::Span, kind: BlockKind) {
+    pub(crate) fn push(&mut self, span: Span, kind: BlockKind) {
         self.sink.block(Block { span, kind });
     }
 
-    fn position(step: &Step, index: usize) -> Position {
-        Position { axes: step.joints, pose: step.pose, step: index, kind: step.kind }
+    pub(crate) fn warn(&mut self, span: Span, message: impl Into<String>) {
+        self.warnings.push(Warning { span, message: message.into() });
+    }
+
+    /// The position of solved step `index`, in the program's frame.
+    pub(crate) fn position(&self, step: &Step, index: usize) -> Position {
+        Position { axes: self.job.frame.apply(&step.joints), pose: step.pose, step: index, kind: step.kind }
+    }
+
+    /// A position postpro adds: the kinematics' values `joints`, the pose they give.
+    pub(crate) fn added(&self, joints: Joints, step: usize, kind: StepKind) -> Position {
+        Position { axes: self.job.frame.apply(&joints), pose: self.kin.forward(&joints), step, kind }
+    }
+
+    /// Tool-centre-point control on before the first motion in TCP mode (where no approach at the
+    /// clearance switched it on).
+    pub(crate) fn ensure_tcp(&mut self, span: Span) {
+        if self.options.mode == Mode::Tcp && !self.tcp_on {
+            self.tcp_on = true;
+            let length_register = self.tool.map_or(0, |t| self.job.tooling.tools[t].length_register);
+            self.push(span, BlockKind::TcpOn { length_register });
+        }
+    }
+
+    /// The step a position postpro adds between steps is annotated with: the last one written.
+    pub(crate) fn next_step(&self) -> usize {
+        self.last_step.map_or(0, |(_, i)| i)
+    }
+
+    /// The work offset, before the first motion.
+    pub(crate) fn work_offset_once(&mut self, span: Span) {
+        if !self.work_offset_written {
+            self.work_offset_written = true;
+            self.push(span, BlockKind::WorkOffset(self.job.work_offset));
+        }
     }
 
     fn decision(&mut self, noted: &Noted) {
@@ -184,64 +376,142 @@ impl<'a> Builder<'a> {
         }
     }
 
+    fn tool_change(&mut self, span: Span, tool: usize) -> Result<(), MotionError> {
+        self.flush_run(false);
+        self.span = span;
+        if self.tcp_on {
+            self.tcp_on = false;
+            self.push(span, BlockKind::TcpOff);
+        }
+        if self.options.clearance {
+            self.retract_to_clearance(span);
+        }
+        let t = &self.job.tooling.tools[tool];
+        let length = self.job.kinematic_lengths.get(tool).copied().unwrap_or(self.machine.chain.tool_length);
+        let call = ToolCall {
+            number: t.number,
+            name: t.name.clone(),
+            radius_register: t.radius_register,
+            // Where the axis values include the length, the one they include.
+            length: if self.job.length_compensation { t.length } else { Some(length) },
+            diameter: t.diameter,
+            corner_radius: t.corner_radius,
+            length_register: t.length_register,
+            length_compensation: self.job.length_compensation,
+        };
+        self.push(span, BlockKind::ToolChange(call));
+        self.tool = Some(tool);
+        self.kin = ToolLength::new(self.base, length);
+        // The spindle is at the tool change position: up, somewhere.
+        self.current = None;
+        self.at_clearance = true;
+        self.last_tip = None;
+        Ok(())
+    }
+
+    /// The feed word of a programmed feed (per minute: within the controller's and the
+    /// machine's range, said once per value where it is not).
+    fn feed_word(&mut self, feed: postpro_cl::Feed, span: Span) -> (FeedWord, Option<String>) {
+        match feed.per {
+            FeedPer::Revolution => (FeedWord::PerRevolution(feed.value), None),
+            FeedPer::Minute => {
+                let cnc = &self.machine.cnc;
+                let (lo, hi) = self.options.feed_range;
+                let (lo, hi) = (lo.max(cnc.feed_min), hi.min(cnc.feed_max));
+                let limited = feed.value.clamp(lo, hi);
+                if limited == feed.value {
+                    return (FeedWord::PerMinute(limited), None);
+                }
+                let text = format!(
+                    "feed {} mm/min limited to {} mm/min (the machine's range {}…{} mm/min)",
+                    crate::number(feed.value),
+                    crate::number(limited),
+                    crate::number(lo),
+                    crate::number(hi)
+                );
+                if !self.limited.contains(&feed.value) {
+                    self.limited.push(feed.value);
+                    self.warn(span, text.clone());
+                }
+                (FeedWord::PerMinute(limited), Some(text))
+            }
+        }
+    }
+
     fn step(&mut self, k: usize, step: &Step, motion: Motion, hole: bool) -> Result<(), MotionError> {
         self.span = step.span;
         let rapid =
             step.rapid || matches!(step.kind, StepKind::Retract | StepKind::Reorient) || motion == Motion::Rapid;
-        if self.options.mode == Mode::Bspline {
-            match motion {
-                Motion::Feed(f) if f.per == FeedPer::Minute && !rapid => {
-                    // The spline goes through the CL points (it is checked against the
-                    // tolerance itself); the linearization points are queued for a run written
-                    // as G1.
-                    let linearized = step.kind == StepKind::Linearized;
-                    // A point at another feed ends the run; the linearization points queued for
-                    // it (at its feed) go on into the next.
-                    if !linearized && self.run.iter().rev().find(|q| !q.linearized).is_some_and(|q| q.feed != f.value) {
-                        self.flush_run(true);
+        let feed = match motion {
+            Motion::Feed(f) => Some(f),
+            // Hole positions of a canned cycle are reached at rapid.
+            Motion::Unset if hole => None,
+            Motion::Unset if !rapid => {
+                return match self.machine.policy.missing_feed {
+                    postpro_machine::model::MissingFeed::Error => Err(MotionError::NoFeed { span: step.span }),
+                    postpro_machine::model::MissingFeed::Rapid => {
+                        self.warn(step.span, "a feed move with no feed programmed before it: written as a rapid (the machine's policy `missing_feed: rapid`)");
+                        self.rapid(k, step);
+                        Ok(())
                     }
-                    if self.run.is_empty() {
-                        self.run_start = self.last_step;
-                    }
-                    self.run.push(Queued { step: *step, index: k, feed: f.value, linearized });
-                    if !linearized {
-                        self.last_step = Some((*step, k));
-                    }
-                    return Ok(());
-                }
-                _ => self.flush_run(false),
+                };
             }
-        }
-        self.last_step = Some((*step, k));
-        let tcp = self.options.mode == Mode::Tcp;
-        // In TCP mode the controller interpolates in the part frame: no linearization points
-        // (the prediction still follows them).
-        if tcp && step.kind == StepKind::Linearized {
-            self.via.push(Self::position(step, k));
+            Motion::Unset | Motion::Rapid => None,
+        };
+        if rapid || feed.is_none() {
+            self.flush_run(false);
+            self.last_step = Some((*step, k));
+            self.rapid(k, step);
             return Ok(());
         }
-        if tcp && !self.tcp_on {
-            self.tcp_on = true;
-            self.push(step.span, BlockKind::TcpOn);
+        let Some(feed) = feed else { return Ok(()) };
+        if self.current.is_none() && self.options.clearance {
+            // A feed move with no position to start from (the first move after a tool change):
+            // approached at the clearance above it, then fed down to it.
+            self.flush_run(false);
+            self.warn(
+                step.span,
+                "a feed move with no position before it (after a tool change): the tool is brought above it at the \
+                 clearance and fed down to it",
+            );
+            self.reposition(k, step, true);
+        }
+        self.first_feed.get_or_insert(step.span);
+        self.ensure_tcp(step.span);
+        if self.options.mode == Mode::Bspline && feed.per == FeedPer::Minute {
+            // The spline goes through the CL points (it is checked against the tolerance
+            // itself); the linearization points are queued for a run written as G1.
+            let linearized = step.kind == StepKind::Linearized;
+            // A point at another feed ends the run; the linearization points queued for it (at
+            // its feed) go on into the next.
+            if !linearized && self.run.iter().rev().find(|q| !q.linearized).is_some_and(|q| q.feed != feed.value) {
+                self.flush_run(true);
+            }
+            if self.run.is_empty() {
+                self.run_start = self.last_step;
+            }
+            self.run.push(Queued { step: *step, index: k, feed: feed.value, linearized });
+            if !linearized {
+                self.last_step = Some((*step, k));
+            }
+            self.current = Some(step.joints);
+            return Ok(());
+        }
+        self.flush_run(false);
+        self.last_step = Some((*step, k));
+        // In TCP mode the controller interpolates in the part frame: no linearization points
+        // (the prediction still follows them).
+        if self.options.mode == Mode::Tcp && step.kind == StepKind::Linearized {
+            let at = self.position(step, k);
+            self.via.push(at);
+            self.current = Some(step.joints);
+            return Ok(());
         }
         let tip = step.pose.tip;
         let length = self.last_tip.map_or(0.0, |t| (tip - t).norm());
         self.last_tip = Some(tip);
-        let previous = self.previous.replace(step.joints).unwrap_or(step.joints);
-        if rapid {
-            self.via.clear();
-            self.push(step.span, BlockKind::Rapid(Self::position(step, k)));
-            return Ok(());
-        }
-        let feed = match motion {
-            Motion::Feed(f) => f,
-            // Hole positions of a canned cycle are written as moves (with the modal feed).
-            Motion::Unset if hole => {
-                self.push(step.span, BlockKind::Rapid(Self::position(step, k)));
-                return Ok(());
-            }
-            Motion::Unset | Motion::Rapid => return Err(MotionError::NoFeed { span: step.span }),
-        };
+        let previous = self.current.replace(step.joints).unwrap_or(step.joints);
+        self.at_clearance = false;
         match (self.options.mode, feed.per) {
             (Mode::InverseTime, FeedPer::Minute) if feed.value > 0.0 => {
                 let (lo, hi) = self.options.inverse_time_range;
@@ -249,75 +519,187 @@ impl<'a> Builder<'a> {
                 let f_inverse = if length > 0.0 { feed.value / length } else { hi };
                 let pieces = if f_inverse < lo { (lo / f_inverse).ceil().min(1e6) as usize } else { 1 };
                 let (f_piece, note) = if f_inverse * pieces as f64 > hi {
-                    (hi, Some(format!("F limited to {hi} (block of {length:.4} mm)")))
+                    (hi, Some(format!("F limited to {} (block of {length:.4} mm)", crate::number(hi))))
                 } else {
                     (f_inverse * pieces as f64, None)
                 };
                 for p in 1..=pieces {
                     let to = if pieces == 1 {
-                        Self::position(step, k)
+                        self.position(step, k)
                     } else {
-                        let axes = previous.lerp(&step.joints, p as f64 / pieces as f64);
-                        let pose = if p == pieces { step.pose } else { self.kin.forward(&axes) };
-                        Position { axes, pose, step: k, kind: step.kind }
+                        let joints = previous.lerp(&step.joints, p as f64 / pieces as f64);
+                        let mut at = self.added(joints, k, step.kind);
+                        if p == pieces {
+                            at.pose = step.pose;
+                        }
+                        at
                     };
                     let linear =
                         Linear { to, feed: FeedWord::InverseTime(f_piece), note: note.clone(), via: Vec::new() };
                     self.push(step.span, BlockKind::Linear(linear));
                 }
             }
-            (_, per) => {
-                let (word, note) = match per {
-                    FeedPer::Minute => {
-                        let (lo, hi) = self.options.feed_range;
-                        let limited = feed.value.clamp(lo, hi);
-                        // Out of the controller's range: written at the limit, and said so.
-                        let note = (limited != feed.value)
-                            .then(|| format!("feed {} mm/min out of the controller's range {lo}…{hi}", feed.value));
-                        (FeedWord::PerMinute(limited), note)
-                    }
-                    FeedPer::Revolution => (FeedWord::PerRevolution(feed.value), None),
-                };
+            _ => {
+                let (word, note) = self.feed_word(feed, step.span);
                 let via = std::mem::take(&mut self.via);
-                let linear = Linear { to: Self::position(step, k), feed: word, note, via };
+                let linear = Linear { to: self.position(step, k), feed: word, note, via };
                 self.push(step.span, BlockKind::Linear(linear));
             }
         }
         Ok(())
     }
 
-    fn item(&mut self, span: postpro_cl::Span, kind: &ItemKind) {
+    /// A rapid to solved step `k`: straight, unless it turns a rotary axis or the position is
+    /// not known: then by the clearance.
+    fn rapid(&mut self, k: usize, step: &Step) {
+        self.via.clear();
+        let turns = match &self.current {
+            None => true,
+            Some(current) => !crate::arc::same_rotaries(self.base, current, &step.joints),
+        };
+        if turns && self.options.clearance {
+            self.reposition(k, step, false);
+            return;
+        }
+        self.ensure_tcp(step.span);
+        let to = self.position(step, k);
+        self.last_tip = Some(step.pose.tip);
+        self.current = Some(step.joints);
+        self.at_clearance = false;
+        self.push(step.span, BlockKind::Rapid(Rapid { to, axes: AxisSet::ALL }));
+    }
+
+    /// A CL arc whose steps are `steps` (from step `first`), written as one circular block when
+    /// it is a circle of the program's frame; returns the number of `decisions` written for it,
+    /// or `None` when it is to be written step by step.
+    fn arc(
+        &mut self,
+        arc: &postpro_cl::Arc,
+        span: Span,
+        first: usize,
+        steps: &[Step],
+        motion: Motion,
+        decisions: &[Noted],
+    ) -> Result<Option<usize>, MotionError> {
+        let crate::build::Arcs::Native { turns: many_turns, all_planes } = self.options.arcs else { return Ok(None) };
+        let Motion::Feed(feed) = motion else { return Ok(None) };
+        let (Some(current), Some(last)) = (self.current, steps.last()) else { return Ok(None) };
+        let own = |s: &Step| s.span == span && matches!(s.kind, StepKind::Cl | StepKind::Linearized);
+        let tcp = self.options.mode == Mode::Tcp;
+        let steady = steps.iter().all(|s| crate::arc::same_rotaries(self.base, &current, &s.joints));
+        if !steps.iter().all(own) || !steady || (tcp && !axis_steady(arc, steps)) {
+            return Ok(None);
+        }
+        let Some(geometry) = crate::arc::geometry(arc, &self.kin, &self.job.frame, &current, tcp) else {
+            return Ok(None);
+        };
+        if !all_planes && geometry.plane != crate::block::Plane::Xy {
+            return Ok(None);
+        }
+        self.flush_run(false);
+        self.ensure_tcp(span);
+        // Decisions of its steps (a hold of the free axis at its start) go before it.
+        let mut written = 0;
+        while written < decisions.len() && decisions[written].step < first + steps.len() {
+            let text = format!("postpro: {}", decisions[written].decision);
+            self.push(decisions[written].span, BlockKind::Comment(text));
+            written += 1;
+        }
+        self.first_feed.get_or_insert(span);
+        self.at_clearance = false;
+        let index = first + steps.len() - 1;
+        // A helix of several turns, where the dialect writes one turn per block: split at every
+        // full turn; each step on the way goes with the piece it lies on (by its share of the
+        // path).
+        let pieces = if many_turns || geometry.turns == 0 { 1 } else { geometry.turns as usize + 1 };
+        let full = std::f64::consts::TAU;
+        let length = arc.length();
+        let mut travelled = 0.0;
+        let mut previous_tip = arc.start;
+        let share: Vec<f64> = steps
+            .iter()
+            .map(|s| {
+                travelled += (s.pose.tip - previous_tip).norm();
+                previous_tip = s.pose.tip;
+                travelled
+            })
+            .collect();
+        let total = travelled.max(f64::MIN_POSITIVE);
+        let mut from = 0;
+        for p in 1..=pieces {
+            let last_piece = p == pieces;
+            let sweep = if last_piece { arc.sweep - full * (pieces - 1) as f64 } else { full };
+            let end_share = if last_piece { f64::INFINITY } else { full * p as f64 / arc.sweep };
+            let upto = from + share[from..].partition_point(|&l| l / total < end_share - 1e-9);
+            let to = if last_piece {
+                self.position(last, index)
+            } else {
+                let tip = arc.point_at(end_share);
+                let joints = self.kin.place(&Pose { tip, axis: last.pose.axis }, &current);
+                self.added(joints, first + upto.saturating_sub(1).max(from), StepKind::Cl)
+            };
+            let via_end = if last_piece { steps.len() - 1 } else { upto };
+            let via: Vec<Position> = (from..via_end.max(from)).map(|j| self.position(&steps[j], first + j)).collect();
+            from = upto.max(from);
+            let piece_length = length * sweep / arc.sweep;
+            let (feed_word, note) = match (self.options.mode, feed.per) {
+                (Mode::InverseTime, FeedPer::Minute) if feed.value > 0.0 && piece_length > 0.0 => {
+                    let (lo, hi) = self.options.inverse_time_range;
+                    (FeedWord::InverseTime((feed.value / piece_length).clamp(lo, hi)), None)
+                }
+                _ => self.feed_word(feed, span),
+            };
+            let block = Arc {
+                to,
+                plane: geometry.plane,
+                center: geometry.center,
+                clockwise: geometry.clockwise,
+                turns: if pieces == 1 { geometry.turns } else { 0 },
+                sweep,
+                radius: geometry.radius,
+                feed: feed_word,
+                note,
+                via,
+            };
+            self.push(span, BlockKind::Arc(Box::new(block)));
+        }
+        self.current = Some(last.joints);
+        self.last_tip = Some(last.pose.tip);
+        self.last_step = Some((*last, index));
+        Ok(Some(written))
+    }
+
+    fn item(&mut self, span: Span, kind: &ItemKind) {
         self.span = span;
         if !matches!(kind, ItemKind::Comment(_) | ItemKind::Frame(_) | ItemKind::Multax(_) | ItemKind::ToolShape(_)) {
             self.flush_run(false);
         }
         let block = match kind {
-            ItemKind::ToolChange(t) => {
-                if self.tcp_on {
-                    self.tcp_on = false;
-                    self.push(span, BlockKind::TcpOff);
-                }
-                let shape = self.shape.take();
-                BlockKind::ToolChange(ToolCall {
-                    number: t.number,
-                    name: t.name.clone(),
-                    diameter: shape.map(|s| s.diameter),
-                    corner_radius: shape.map(|s| s.corner_radius),
-                    length_register: t.adjust.unwrap_or(t.number),
-                    length_compensation: self.machine.chain.tool_length == 0.0,
-                })
-            }
             ItemKind::Spindle(Spindle::On { speed, unit, clockwise }) => {
                 self.spindle_rpm = (*unit == SpindleUnit::Rpm).then_some(*speed);
+                self.spindle_on = true;
+                self.spindle_seen = true;
                 BlockKind::SpindleOn {
                     speed: *speed,
                     clockwise: *clockwise,
                     surface_speed: *unit == SpindleUnit::SurfaceSpeed,
                 }
             }
-            ItemKind::Spindle(Spindle::Off) => BlockKind::SpindleOff,
-            ItemKind::Coolant(postpro_cl::Coolant::Off) => BlockKind::CoolantOff,
-            ItemKind::Coolant(c) => BlockKind::CoolantOn(*c),
+            ItemKind::Spindle(Spindle::Off) => {
+                self.spindle_on = false;
+                self.spindle_seen = true;
+                BlockKind::SpindleOff
+            }
+            ItemKind::Coolant(postpro_cl::Coolant::Off) => {
+                self.coolant_on = false;
+                self.coolant_seen = true;
+                BlockKind::CoolantOff
+            }
+            ItemKind::Coolant(c) => {
+                self.coolant_on = true;
+                self.coolant_seen = true;
+                BlockKind::CoolantOn(*c)
+            }
             ItemKind::CutterComp(c) => {
                 let side = match c {
                     CutterComp::Left => "LEFT",
@@ -338,7 +720,10 @@ impl<'a> Builder<'a> {
                 };
                 match seconds {
                     Some(s) => BlockKind::Dwell(s),
-                    None => BlockKind::Comment("DELAY in revolutions without a spindle speed: not written".into()),
+                    None => {
+                        self.warn(span, "a dwell in spindle revolutions with no spindle speed: not written");
+                        BlockKind::Comment("DELAY in revolutions without a spindle speed: not written".into())
+                    }
                 }
             }
             ItemKind::Stop(text) => BlockKind::Stop(text.clone()),
@@ -352,11 +737,9 @@ impl<'a> Builder<'a> {
                 let args = if r.args.is_empty() { String::new() } else { format!("/{}", r.args) };
                 BlockKind::Comment(format!("CL {}{args}: unknown word, not interpreted", r.word))
             }
-            ItemKind::ToolShape(shape) => {
-                self.shape = Some(*shape);
-                return;
-            }
-            ItemKind::Record(_)
+            ItemKind::ToolShape(_)
+            | ItemKind::Record(_)
+            | ItemKind::ToolChange(_)
             | ItemKind::ToolSelect(_)
             | ItemKind::Move(_)
             | ItemKind::Arc(_)
@@ -393,6 +776,7 @@ impl<'a> Builder<'a> {
         if run.is_empty() && held.is_empty() {
             return;
         }
+        self.at_clearance = false;
         let points: Vec<&Queued> = run.iter().filter(|q| !q.linearized).collect();
         let fitted = start.filter(|_| !points.is_empty()).and_then(|(start, _)| {
             let joints: Vec<Joints> =
@@ -400,7 +784,7 @@ impl<'a> Builder<'a> {
             let poses: Vec<Pose> = std::iter::once(start.pose).chain(points.iter().map(|q| q.step.pose)).collect();
             let policy = &self.machine.policy;
             bspline::fit_indexed(
-                self.kin,
+                &self.kin,
                 &bspline::Run { joints: &joints, poses: &poses },
                 policy.linearization_tolerance,
                 policy.singular_cone,
@@ -408,7 +792,7 @@ impl<'a> Builder<'a> {
         });
         let mut next_held = 0;
         let mut g1_from = 0;
-        if let Some(bspline::Fit { spline: curve, poses, params, index }) = fitted {
+        if let Some(bspline::Fit { spline: mut curve, poses, params, index }) = fitted {
             // Decisions are held only while carried points wait for their CL point, which
             // this spline reaches: they go before it.
             for h in &held {
@@ -437,10 +821,11 @@ impl<'a> Builder<'a> {
                     }
                     let q = points[r - 1];
                     if index[r] == d {
-                        Self::position(&q.step, q.index)
+                        self.position(&q.step, q.index)
                     } else {
+                        let joints = curve.at(params[d]);
                         Position {
-                            axes: curve.at(params[d]),
+                            axes: self.job.frame.apply(&joints),
                             pose: poses[d],
                             step: q.index,
                             kind: StepKind::Linearized,
@@ -448,11 +833,14 @@ impl<'a> Builder<'a> {
                     }
                 })
                 .collect();
+            // The curve in the program's frame (a B-spline is affine-invariant).
+            for c in &mut curve.control {
+                *c = self.job.frame.apply(c);
+            }
             let spline = Spline { feed: last.feed, curve, poses, params, points: data, steps };
             let span = run[0].step.span;
             self.push(span, BlockKind::Spline(Box::new(spline)));
             self.last_tip = Some(last.step.pose.tip);
-            self.previous = Some(last.step.joints);
             // Linearization points after the last CL point (a run ended without it): G1.
             g1_from = split;
         }
@@ -461,26 +849,49 @@ impl<'a> Builder<'a> {
                 self.push(h.span, BlockKind::Comment(h.text.clone()));
                 next_held += 1;
             }
-            let linear = Linear {
-                to: Self::position(&q.step, q.index),
-                feed: FeedWord::PerMinute(q.feed.clamp(self.options.feed_range.0, self.options.feed_range.1)),
-                note: None,
-                via: Vec::new(),
-            };
+            let (feed, note) = self.feed_word(postpro_cl::Feed { value: q.feed, per: FeedPer::Minute }, q.step.span);
+            let linear = Linear { to: self.position(&q.step, q.index), feed, note, via: Vec::new() };
             self.push(q.step.span, BlockKind::Linear(linear));
             self.last_tip = Some(q.step.pose.tip);
-            self.previous = Some(q.step.joints);
         }
         for h in &held[next_held..] {
             self.push(h.span, BlockKind::Comment(h.text.clone()));
         }
     }
 
-    fn finish(mut self) {
+    fn finish(&mut self) {
         self.flush_run(false);
+        let span = self.span;
         if self.tcp_on {
-            let span = self.span;
+            self.tcp_on = false;
             self.push(span, BlockKind::TcpOff);
         }
+        if self.spindle_on {
+            self.push(span, BlockKind::SpindleOff);
+        }
+        if self.coolant_on {
+            self.push(span, BlockKind::CoolantOff);
+        }
+        if self.options.clearance {
+            self.retract_to_clearance(span);
+            self.home_rotaries(span);
+        }
+        let at = self.first_feed.unwrap_or(span);
+        if !self.spindle_seen && self.first_feed.is_some() {
+            self.warn(at, "the CL file never starts the spindle (no SPINDL): the program writes no spindle speed");
+        }
+        if !self.coolant_seen && self.first_feed.is_some() {
+            self.warn(at, "the CL file says nothing of the coolant (no COOLNT): the program switches none on");
+        }
     }
+}
+
+/// True when the tool axis is the same at every step of an arc (TCP mode writes one vector).
+fn axis_steady(arc: &postpro_cl::Arc, steps: &[Step]) -> bool {
+    steps.iter().all(|s| (s.pose.axis.into_inner() - arc.axis.into_inner()).norm() <= 1e-9)
+}
+
+/// True when axis `i` of `machine` is rotary.
+pub(crate) fn is_rotary(machine: &Machine, i: usize) -> bool {
+    machine.axes[i].kind == AxisKind::Rotary
 }

@@ -103,13 +103,8 @@ fn prepare(name: &'static str, text: String, machine: &str, registry: &Registry)
     let machine = registry.find(machine).expect("built-in machine").machine.clone();
     let kin = solver_for(&machine);
     let solved = solve(kin.as_ref(), &path, &machine.policy).unwrap_or_else(|e| panic!("{name}: does not solve: {e}"));
-    let program = postpro_motion::collect(
-        &path,
-        &solved,
-        kin.as_ref(),
-        &postpro_motion::Options::unbounded(postpro_motion::Mode::G1),
-    )
-    .unwrap_or_else(|e| panic!("{name}: no motion program: {e}"));
+    let program = postpro_motion::study(&path, &solved, kin.as_ref(), postpro_motion::Mode::G1)
+        .unwrap_or_else(|e| panic!("{name}: no motion program: {e}"));
     let blocks = blocks(&program, &machine, Timing::TipFeed);
     let (started, cpu_before) = (Instant::now(), thread_cpu_time());
     let prediction = predict(&blocks, kin.as_ref(), &options());

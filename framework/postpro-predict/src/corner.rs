@@ -44,6 +44,20 @@ pub fn path_acceleration(machine: &Machine) -> f64 {
     })
 }
 
+/// The tip speed (mm/s) a circular arc of radius `radius` (mm) allows: the centripetal
+/// acceleration `v²/R` within the acceleration the CNC keeps for curvature (the corner's
+/// `A_c = A · (1 − share)`), and its jerk `v³/R²` within the weakest linear axis's jerk.
+pub fn arc_speed(machine: &Machine, radius: f64) -> f64 {
+    if !(radius.is_finite() && radius > 0.0) {
+        return f64::INFINITY;
+    }
+    let acceleration = path_acceleration(machine) * (1.0 - machine.cnc.curvature_accel_share);
+    let jerk = machine.cnc.tangential_jerk.unwrap_or_else(|| {
+        machine.axes.iter().filter(|a| a.kind == AxisKind::Linear).map(|a| a.jmax).fold(f64::INFINITY, f64::min)
+    });
+    (acceleration * radius).sqrt().min((jerk * radius * radius).cbrt())
+}
+
 /// The cap on a path parameter's speed where a block moving the axes by `a.0` over a parameter
 /// length `a.1` meets one moving them by `b.0` over `b.1`, the tip turning from `incoming` to
 /// `outgoing` and covering at most `tip_per_unit` mm per unit of the parameter: the tip's corner

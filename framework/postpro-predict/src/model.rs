@@ -33,7 +33,14 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
         blocks.delta(i, &mut delta);
         let piece = piece(blocks, machine, i, &delta, nominal);
         let previous = track.last_block();
+        let mut why = blocks.junction_limit(previous, i);
         let corner = match previous {
+            // Two blocks of one arc meet without a corner: at the arc's own speed, as a share of
+            // the feed.
+            Some(previous) if !track.stop_pending() && blocks.same_arc(previous, i) => {
+                why = Limit::Curvature;
+                crate::corner::arc_speed(machine, blocks.radius[i]) / blocks.nominal_tip_feed(i).max(1e-12)
+            }
             Some(previous) if !track.stop_pending() => {
                 blocks.delta(previous, &mut previous_delta);
                 // In programmed time a block's axis rates are ΔP / T and its tip covers its
@@ -50,7 +57,7 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
             }
             _ => f64::INFINITY,
         };
-        track.push(piece, i, corner, blocks.junction_limit(previous, i));
+        track.push(piece, i, corner, why);
     }
     // Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
     // N + 10 is taken into account": the current block and `look_ahead` more.
@@ -88,6 +95,12 @@ fn piece(blocks: &Blocks, machine: &Machine, i: usize, delta: &[f64], nominal: f
     let mut jerk_limit = axis_limit(limits.jerk.1, Limit::Jerk);
     let tip_feed = blocks.nominal_tip_feed(i);
     if !rapid && tip_feed > 0.0 {
+        // On a circular arc the centripetal acceleration and its jerk cap the tip speed.
+        let arc = crate::corner::arc_speed(machine, blocks.radius[i]) / tip_feed;
+        if arc < velocity {
+            velocity = arc;
+            velocity_limit = Limit::Curvature;
+        }
         if let Some(at) = cnc.tangential_accel
             && at / tip_feed < acceleration
         {

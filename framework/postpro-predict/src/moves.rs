@@ -95,6 +95,11 @@ pub struct Blocks {
     pub along_axis: Vec<bool>,
     /// The operation of each block (index into [`Self::operations`]).
     pub operation: Vec<u32>,
+    /// The circular arc each block lies on (numbered from 1, in program order; 0: a straight
+    /// block). Consecutive blocks of one arc meet without a corner.
+    pub arc: Vec<u32>,
+    /// The radius of that arc (mm; infinite for a straight block).
+    pub radius: Vec<f64>,
     /// The names of the CL file's operations that have blocks, in order (`OperationStart`
     /// items: NX `TOOL PATH/`, CAMWorks `OPFEATSTART`, …); an empty name for the blocks before
     /// the first one, or of an operation without a name.
@@ -137,6 +142,11 @@ impl Blocks {
         if self.nominal[i] > 0.0 { self.length[i] / self.nominal[i] } else { 0.0 }
     }
 
+    /// True when blocks `a` and `b` lie on one arc (they meet without a corner).
+    pub fn same_arc(&self, a: usize, b: usize) -> bool {
+        self.arc[a] != 0 && self.arc[a] == self.arc[b]
+    }
+
     /// What caps the junction from block `previous` into block `i`: `Plunge` where either moves
     /// the tip along the tool axis (a plunge, a retract at feed: the program asks the tool to
     /// turn there), else `Corner`.
@@ -164,10 +174,37 @@ impl Blocks {
 /// feeds per minute.
 pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timing) -> Blocks {
     let mut out = Blocks { axes: machine.axes.len(), ..Blocks::default() };
-    let mut state = State { stop: true, dwell: 0.0, rpm: None, feed: None, started: false, operation: None };
+    let mut state = State {
+        stop: true,
+        dwell: 0.0,
+        rpm: None,
+        feed: None,
+        started: false,
+        operation: None,
+        arc: (0, f64::INFINITY),
+    };
+    let mut arcs = 0;
     for block in &program.blocks {
         match &block.kind {
-            MotionKind::Rapid(to) => push_block(&mut out, machine, timing, to, Feed::Rapid, &mut state),
+            MotionKind::Rapid(rapid) => push_block(&mut out, machine, timing, &rapid.to, Feed::Rapid, &mut state),
+            MotionKind::MachineRetract(retract) => {
+                state.stop = true;
+                push_block(&mut out, machine, timing, &retract.to, Feed::Rapid, &mut state);
+            }
+            MotionKind::Arc(arc) => {
+                let feed = match arc.feed {
+                    FeedWord::PerMinute(f) => Feed::PerMinute(f),
+                    FeedWord::PerRevolution(f) => Feed::PerRevolution(f),
+                    FeedWord::InverseTime(f) => Feed::InverseTime(f, 1 + arc.via.len()),
+                };
+                arcs += 1;
+                state.arc = (arcs, arc.radius);
+                for via in &arc.via {
+                    push_block(&mut out, machine, timing, via, feed, &mut state);
+                }
+                push_block(&mut out, machine, timing, &arc.to, feed, &mut state);
+                state.arc = (0, f64::INFINITY);
+            }
             MotionKind::Linear(linear) => {
                 let feed = match linear.feed {
                     FeedWord::PerMinute(f) => Feed::PerMinute(f),
@@ -221,6 +258,8 @@ struct State {
     started: bool,
     /// An operation started since the last block: the next block opens it.
     operation: Option<String>,
+    /// The arc the next blocks lie on, and its radius.
+    arc: (u32, f64),
 }
 
 impl State {
@@ -326,6 +365,8 @@ fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position
     let direction = to.pose.tip - from_tip;
     let cos = if length > 1e-9 { (direction / length).dot(&to.pose.axis).abs() } else { 0.0 };
     out.along_axis.push(kind == BlockKind::Feed && cos >= 1f64.to_radians().cos());
+    out.arc.push(state.arc.0);
+    out.radius.push(state.arc.1);
     out.length.push(length);
     out.feed.push(speed);
     out.nominal.push(nominal);

@@ -36,6 +36,8 @@ pub enum Limit {
     CycleTime,
     /// Corner rounding within the contour tolerance.
     Corner,
+    /// The centripetal acceleration (or its jerk) on a circular arc.
+    Curvature,
     /// The look-ahead window: the CNC must be able to stop at its end.
     LookAhead,
     /// An exact stop (rapid, tool change, program end).

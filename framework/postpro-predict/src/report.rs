@@ -360,6 +360,7 @@ pub fn describe(limit: Limit, machine: &Machine) -> String {
         Limit::TangentialJerk => "path jerk".into(),
         Limit::CycleTime => "cycle time".into(),
         Limit::Corner => "corner".into(),
+        Limit::Curvature => "arc curvature".into(),
         Limit::LookAhead => "look-ahead".into(),
         Limit::Stop => "exact stop".into(),
         Limit::Rapid => "rapid".into(),

@@ -167,8 +167,18 @@ impl<'a> Builder<'a> {
         }
         blocks.delta(i, &mut self.delta);
         let length = if blocks.length[i] > 1e-9 { blocks.length[i] } else { blocks.nominal[i] * self.reference_feed };
-        let piece = self.line_piece(i, length);
+        let mut piece = self.line_piece(i, length);
+        let arc = crate::corner::arc_speed(self.machine, blocks.radius[i]);
+        if blocks.kind[i] != BlockKind::Rapid {
+            tighten(&mut piece.velocity, &mut piece.velocity_limit, arc, Limit::Curvature);
+        }
+        let mut why = blocks.junction_limit(self.track.last_block(), i);
         let corner = match self.last_line {
+            // Two blocks of one arc meet without a corner: at the arc's own speed.
+            Some((previous, _)) if self.track.last_block() == Some(previous) && blocks.same_arc(previous, i) => {
+                why = Limit::Curvature;
+                arc
+            }
             Some((previous, previous_length)) if self.track.last_block() == Some(previous) => {
                 blocks.delta(previous, &mut self.other);
                 // On the tip path a block's tip covers L / ℓ mm per unit (1 unless it only turns).
@@ -185,7 +195,7 @@ impl<'a> Builder<'a> {
             // After a curve: the tip's direction changes within the tolerance's rounding.
             _ => f64::INFINITY,
         };
-        self.track.push(piece, i, corner, blocks.junction_limit(self.track.last_block(), i));
+        self.track.push(piece, i, corner, why);
         self.last_line = Some((i, length));
     }
 

@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use postpro_machine::{Machine, Registry};
-use postpro_motion::{Mode, Options as MotionOptions};
+use postpro_motion::Mode;
 use postpro_predict::{BlockKind, Limit, MarkRules, Options, Planner, Prediction, Timing};
 
 /// The bundled examples and the machines that reach them.
@@ -47,8 +47,7 @@ fn modes(machine: &Machine) -> Vec<Mode> {
 fn predict(text: &str, name: &str, machine: &Machine, mode: Mode, planner: Planner) -> Prediction {
     let (path, solved) = read(name, text, machine);
     let kin = postpro_kin::solver_for(machine);
-    let program = postpro_motion::collect(&path, &solved, kin.as_ref(), &MotionOptions::unbounded(mode))
-        .expect("the motion program builds");
+    let program = postpro_motion::study(&path, &solved, kin.as_ref(), mode).expect("the motion program builds");
     let timing = if mode.feeds_the_tip() { Timing::TipFeed } else { Timing::AxisFeed };
     let blocks = postpro_predict::blocks(&program, machine, timing);
     let options = Options { planner, splines: mode == Mode::Bspline, ..Options::default() };

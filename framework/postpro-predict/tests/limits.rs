@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use postpro_machine::{Machine, Registry};
-use postpro_motion::{Mode, Options as MotionOptions};
+use postpro_motion::Mode;
 use postpro_predict::{Options, Planner, Prediction, Samples, Timing};
 
 /// The bundled examples and the machines that reach them.
@@ -35,8 +35,7 @@ fn predict(file: &str, machine: &Machine, planner: Planner) -> Prediction {
     assert!(!path.has_errors(), "{file} reads");
     let kin = postpro_kin::solver_for(machine);
     let solved = postpro_kin::solve(kin.as_ref(), &path, &machine.policy).expect("the example solves");
-    let program = postpro_motion::collect(&path, &solved, kin.as_ref(), &MotionOptions::unbounded(Mode::G1))
-        .expect("the motion program builds");
+    let program = postpro_motion::study(&path, &solved, kin.as_ref(), Mode::G1).expect("the motion program builds");
     let blocks = postpro_predict::blocks(&program, machine, Timing::TipFeed);
     let options = Options { planner, threshold: 0.8, samples: true, ..Options::default() };
     postpro_predict::predict(&blocks, kin.as_ref(), &options)

@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 
 use nalgebra::{Rotation3, Vector3};
 use postpro_machine::{Machine, Registry};
-use postpro_motion::{Mode, Options as MotionOptions};
+use postpro_motion::Mode;
 use postpro_predict::{BlockKind, Blocks, Limit, Options, Planner, Prediction, Timing, describe};
 
 const PLANNERS: [Planner; 2] = [Planner::InverseTime, Planner::Vpop];
@@ -31,8 +31,7 @@ fn predict(text: &str, machine: &Machine, planner: Planner) -> (Blocks, Predicti
     assert!(!path.has_errors(), "{:?}", path.diagnostics);
     let kin = postpro_kin::solver_for(machine);
     let solved = postpro_kin::solve(kin.as_ref(), &path, &machine.policy).expect("the path solves");
-    let program = postpro_motion::collect(&path, &solved, kin.as_ref(), &MotionOptions::unbounded(Mode::G1))
-        .expect("the motion program builds");
+    let program = postpro_motion::study(&path, &solved, kin.as_ref(), Mode::G1).expect("the motion program builds");
     let blocks = postpro_predict::blocks(&program, machine, Timing::TipFeed);
     let options = Options { planner, threshold: 0.8, samples: true, ..Options::default() };
     let prediction = postpro_predict::predict(&blocks, kin.as_ref(), &options);

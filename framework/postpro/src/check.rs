@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use postpro_cl::{Diagnostic, Source, Summary, summarize};
+use postpro_cl::{Diagnostic, Source, Summary, summarize_with};
 
 /// How many diagnostics are rendered in full; the rest are listed one per line.
 const RENDERED: usize = 20;
@@ -15,6 +15,8 @@ const RENDERED: usize = 20;
 pub(crate) struct CheckArgs {
     /// The CL file.
     file: PathBuf,
+    #[command(flatten)]
+    read: crate::setup::ReadArgs,
     /// Print the summary as JSON (stable keys) instead of a table.
     #[arg(long)]
     json: bool,
@@ -37,7 +39,7 @@ pub(crate) fn run(args: &CheckArgs) -> ExitCode {
         }
     };
     let loaded = started.elapsed();
-    let (summary, diagnostics) = summarize(&source);
+    let (summary, diagnostics) = summarize_with(&source, &args.read.options());
     let elapsed = started.elapsed();
     if args.timing {
         let mb = source.text().len() as f64 / 1e6;

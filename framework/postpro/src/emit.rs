@@ -13,6 +13,7 @@ use postpro_emit::{Dialect, EmitError, Mode, Options, builtin_template, dialect,
 use crate::job::{fail, prepare};
 use crate::predict::{self, MarkArgs, PredictionArgs};
 use crate::report;
+use crate::setup::SetupArgs;
 use crate::solve::{IktArgs, MachineArgs};
 
 /// CL files above this size get a progress indicator on a terminal.
@@ -28,6 +29,8 @@ pub(crate) struct EmitArgs {
     machine: Option<MachineArgs>,
     #[command(flatten)]
     ikt: IktArgs,
+    #[command(flatten)]
+    setup: SetupArgs,
     /// Output file; `-` for standard output. Default: next to the input, with the dialect's
     /// extension (`part.cl` → `part.mpf`).
     #[arg(long, short = 'o', value_name = "OUT")]
@@ -37,6 +40,10 @@ pub(crate) struct EmitArgs {
     /// or `tcp` (tool tip and vector; the controller solves the kinematics).
     #[arg(long, value_enum, default_value_t = ModeArg::G1)]
     mode: ModeArg,
+    /// CL arcs as circular interpolation wherever they are circles of the program's frame
+    /// (`native`), or always as straight moves within the tolerance (`linear`).
+    #[arg(long, value_enum, default_value_t = ArcsArg::Native)]
+    arcs: ArcsArg,
     #[command(flatten)]
     prediction: PredictionArgs,
     #[command(flatten)]
@@ -53,6 +60,13 @@ pub(crate) struct EmitArgs {
     /// Number the blocks (N10, N20, …).
     #[arg(long)]
     block_numbers: bool,
+}
+
+/// `--arcs`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum ArcsArg {
+    Native,
+    Linear,
 }
 
 /// `--mode`.
@@ -141,7 +155,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             }
         }
     };
-    let job = match prepare(file, &chosen, &args.ikt, "nothing written", &stage) {
+    let job = match prepare(file, &chosen, &args.ikt, &args.setup, mode, "nothing written", &stage) {
         Ok(job) => job,
         Err(code) => return code,
     };
@@ -153,6 +167,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         output: &output,
         program_name,
         block_numbers: args.block_numbers,
+        linear_arcs: args.arcs == ArcsArg::Linear,
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
     };
     write_job(&job, &writing, &stage)
@@ -172,6 +187,8 @@ pub(crate) struct Writing<'a> {
     pub(crate) program_name: String,
     /// Number the blocks.
     pub(crate) block_numbers: bool,
+    /// CL arcs as straight moves.
+    pub(crate) linear_arcs: bool,
     /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
     pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
 }
@@ -181,7 +198,7 @@ pub(crate) struct Writing<'a> {
 pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn(&str)) -> ExitCode {
     let (mode, dialect, template, output) = (how.mode, how.dialect, how.template, how.output);
     let (solved, machine, source) = (&job.solved, &job.machine, &job.source);
-    let program = match job.motion(mode, dialect) {
+    let program = match job.motion(dialect, how.linear_arcs) {
         Ok(program) => program,
         Err(code) => {
             stage("");
@@ -206,6 +223,7 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
     stage("writing the program");
     let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
     let options = Options {
+        units: job.setup.units(machine),
         program_name: how.program_name.clone(),
         source_name: source.name().to_string(),
         block_numbers: how.block_numbers,

@@ -14,6 +14,7 @@ mod orient;
 mod plot;
 mod predict;
 mod report;
+mod setup;
 mod solve;
 
 use std::process::ExitCode;

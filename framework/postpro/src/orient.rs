@@ -32,6 +32,8 @@ pub(crate) struct OrientArgs {
     machine: MachineArgs,
     #[command(flatten)]
     ikt: IktArgs,
+    #[command(flatten)]
+    setup: crate::setup::SetupArgs,
     /// Half-angle (degrees) of the admissible cone of tool axes around each path's own.
     #[arg(long, value_name = "DEG", default_value_t = 30.0)]
     cone: f64,
@@ -111,7 +113,8 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
-    let job = match prepare(&args.file, &chosen, &args.ikt, "nothing oriented", &|_| {}) {
+    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, args.mode.mode(), "nothing oriented", &|_| {})
+    {
         Ok(job) => job,
         Err(code) => return code,
     };
@@ -131,7 +134,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         return fail(&format!("error: {} has no feed path to orient\n", job.source.name()), 1);
     }
     let mode = args.mode.mode();
-    let original_program = match job.motion(mode, crate::job::machine_dialect(machine)) {
+    let original_program = match job.motion(crate::job::machine_dialect(machine), false) {
         Ok(program) => program,
         Err(code) => return code,
     };
@@ -282,8 +285,10 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             postpro_emit::builtin_template(dialect.name).unwrap_or_default().to_string(),
         );
         let name = args.file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
-        let Job { source, machine, solver, .. } = job;
-        let oriented = Job { source, path, machine, solver, solved };
+        let Job { source, machine, solver, setup, kinematic_lengths, mode: job_mode, .. } = job;
+        // The re-oriented program loads the same tools at the same items.
+        let (tooling, _) = postpro_motion::tooling(&path, setup.tool_table.as_ref());
+        let oriented = Job { source, path, machine, solver, solved, setup, tooling, kinematic_lengths, mode: job_mode };
         let writing = Writing {
             mode,
             dialect,
@@ -291,6 +296,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             output: out,
             program_name: name,
             block_numbers: false,
+            linear_arcs: false,
             prediction: Some((&args.prediction, &args.marks)),
         };
         return write_job(&oriented, &writing, &|_| {});

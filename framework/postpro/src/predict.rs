@@ -95,6 +95,12 @@ pub(crate) struct PredictArgs {
     machine: MachineArgs,
     #[command(flatten)]
     ikt: IktArgs,
+    #[command(flatten)]
+    setup: crate::setup::SetupArgs,
+    /// CL arcs as circular interpolation where they are circles of the program's frame
+    /// (`native`), or as straight moves (`linear`), as the main job writes them.
+    #[arg(long, value_enum, default_value_t = crate::emit::ArcsArg::Native)]
+    arcs: crate::emit::ArcsArg,
     /// The output mode the prediction is for, as the main job's `--mode` (default the same, g1):
     /// `g1` (F is the feed of the linear axes), `inverse-time`, `tcp` or `bspline` (F is the feed
     /// of the tool tip).
@@ -282,14 +288,16 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     {
         return fail(&format!("error: --period must be a positive number of ms, found {ms}\n"), 2);
     }
-    let job = match prepare(&args.file, &chosen, &args.ikt, "nothing predicted", &|_| {}) {
+    let mode = args.mode.mode();
+    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, mode, "nothing predicted", &|_| {}) {
         Ok(job) => job,
         Err(code) => return code,
     };
     let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some() || args.report.is_some();
     let mode = args.mode.mode();
     let planner = effective(args.prediction.planner(), mode);
-    let program = match job.motion(mode, crate::job::machine_dialect(&job.machine)) {
+    let linear_arcs = args.arcs == crate::emit::ArcsArg::Linear;
+    let program = match job.motion(crate::job::machine_dialect(&job.machine), linear_arcs) {
         Ok(program) => program,
         Err(code) => return code,
     };

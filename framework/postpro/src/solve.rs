@@ -30,6 +30,8 @@ pub(crate) struct SolveArgs {
     machine: MachineArgs,
     #[command(flatten)]
     ikt: IktArgs,
+    #[command(flatten)]
+    setup: crate::setup::SetupArgs,
     /// Print every position as CSV (rotary axes in degrees) instead of the summary.
     #[arg(long)]
     csv: bool,
@@ -218,11 +220,17 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
-    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, "nothing solved", &|_| {}) {
+    let mode = postpro_emit::Mode::G1;
+    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, &args.setup, mode, "nothing solved", &|_| {}) {
         Ok(job) => job,
         Err(code) => return code,
     };
-    let crate::job::Job { source, machine, solver, solved, .. } = job;
+    let frame = postpro_motion::work_frame(job.solver.kinematics(), mode);
+    let crate::job::Job { source, machine, solver, mut solved, .. } = job;
+    // The axis values as the program writes them: in the work offset's frame.
+    for s in &mut solved.steps {
+        s.joints = frame.apply(&s.joints);
+    }
     let kinematics = match &solver {
         Solver::Plugin(a) => Some(format!("plugin {} (checked against the definition)", a.library().display())),
         Solver::Built(_) => None,
@@ -230,7 +238,7 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
     let text = if args.csv {
         csv(&machine, &source, &solved)
     } else {
-        summary(&machine, &source, &solved, kinematics.as_deref())
+        summary(&machine, &source, &solved, kinematics.as_deref(), &frame.describe())
     };
     report::print_stdout(&text)
 }
@@ -268,7 +276,7 @@ fn csv(machine: &Machine, source: &Source, solved: &Solved) -> String {
     out
 }
 
-fn summary(machine: &Machine, source: &Source, solved: &Solved, kinematics: Option<&str>) -> String {
+fn summary(machine: &Machine, source: &Source, solved: &Solved, kinematics: Option<&str>, origin: &str) -> String {
     let mut out = String::new();
     let cl = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
     let _ = writeln!(out, "machine     {} ({})", machine.name, machine.topology().label());
@@ -276,6 +284,7 @@ fn summary(machine: &Machine, source: &Source, solved: &Solved, kinematics: Opti
         let _ = writeln!(out, "kinematics  {k}");
     }
     let _ = writeln!(out, "file        {}", source.name());
+    let _ = writeln!(out, "frame       the work offset, set on {origin}");
     let _ = writeln!(
         out,
         "positions   {} ({cl} from the CL file, {} added by linearization within {} mm)",

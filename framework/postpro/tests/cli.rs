@@ -35,7 +35,7 @@ fn check_prints_a_table_for_an_example() {
     for line in [
         format!("file            {EXAMPLE}"),
         "CAM system      postpro example generator".to_string(),
-        "units           mm (feed word at 24:1); figures below in mm".to_string(),
+        "units           mm (feed word at 25:1); figures below in mm".to_string(),
         "axes            5-axis".to_string(),
         "tools           T1 BALL_D10 D10 R5".to_string(),
         "errors          0".to_string(),

@@ -325,25 +325,46 @@ struct Block {
     axes: [(f64, usize); 5],
 }
 
-/// The motion blocks of a program, the modal words resolved.
+/// The motion blocks of a program that reach the CL file's positions, the modal words resolved:
+/// the moves at the clearance postpro adds are left out (the retract in machine coordinates, the
+/// rotary axes turned alone, the approach across the spindle that follows; the approach down
+/// reaches the CL position and stays).
 fn motion_blocks(program: &str) -> Vec<Block> {
     let mut modal: [Option<(f64, usize)>; 5] = [None; 5];
     let mut out = Vec::new();
+    let mut after_rotation = false;
     for line in program.lines() {
         let feed = line.starts_with("G1 ");
         if !(feed || line.starts_with("G0 ")) {
             continue;
         }
-        for word in line.split_whitespace().skip(1) {
+        let words: Vec<&str> = line.split_whitespace().skip(1).collect();
+        for word in &words {
             let Some(k) = "XYZAC".find(&word[..1]) else { continue };
             let value = &word[1..];
             let decimals = value.split_once('.').map_or(0, |(_, d)| d.len());
             modal[k] = Some((number(value), decimals));
         }
+        let rotation = !feed && words.iter().all(|w| w.starts_with('A') || w.starts_with('C'));
+        let skip = line.contains("SUPA") || rotation || (after_rotation && !words.iter().any(|w| w.starts_with('Z')));
+        after_rotation = rotation || (after_rotation && skip);
+        if skip {
+            continue;
+        }
         let axes = modal.map(|m| m.unwrap_or_else(|| panic!("every axis written by `{line}`")));
         out.push(Block { line: line.to_string(), feed, axes });
     }
     out
+}
+
+/// The rapids that turn the rotary axes alone (at the clearance), in order.
+fn rotations(program: &str) -> Vec<&str> {
+    program
+        .lines()
+        .filter(|l| {
+            l.starts_with("G0 ") && l.split_whitespace().skip(1).all(|w| w.starts_with('A') || w.starts_with('C'))
+        })
+        .collect()
 }
 
 /// A written value equals `expected` to its decimals.
@@ -411,10 +432,13 @@ fn apply_writes_the_whole_part_at_its_set_up() {
         assert!(written(b.axes[3], a) && written(b.axes[4], c), "`{}` at A {a}°, C {c}°", b.line);
     }
     assert!(blocks[first..=last].iter().filter(|b| b.feed).count() >= 3 * PATHS - 2, "plunge, ruling, retract");
+    // The rotary axes turn twice, alone at the clearance: to the set-up before the first block,
+    // home at the end; never in between.
     let rotary = |b: &&Block| b.line.split_whitespace().any(|w| w.starts_with('A') || w.starts_with('C'));
-    let turning: Vec<&str> = blocks.iter().filter(rotary).map(|b| b.line.as_str()).collect();
-    assert_eq!(turning.len(), 1, "A and C written once: {turning:?}");
-    assert!(std::ptr::eq(turning[0], blocks[0].line.as_str()), "on the first block: {turning:?}");
+    assert_eq!(blocks.iter().filter(rotary).count(), 0, "no block of the paths turns A or C");
+    let turning = rotations(&program);
+    assert_eq!(turning.len(), 2, "to the set-up and home: {turning:?}");
+    assert_eq!(turning[1], "G0 A0.0000 C0.0000", "home at the end");
 }
 
 #[test]

@@ -5,7 +5,8 @@ use postpro_cl::ToolPath;
 use postpro_emit::{Dialect, Mode, motion_options};
 use postpro_kin::{Kinematics, Solved};
 
-/// The motion program of `solved` in `mode` with `dialect`'s feed ranges.
+/// The motion program of `solved` in `mode` for `dialect`, with no set-up of its own (the work
+/// frame of the mode, the dialect's default work offset, the CL file's tools), arcs native.
 pub(crate) fn motion(
     path: &ToolPath,
     solved: &Solved,
@@ -13,5 +14,6 @@ pub(crate) fn motion(
     d: &Dialect,
     mode: Mode,
 ) -> postpro_motion::Program {
-    postpro_motion::collect(path, solved, kin, &motion_options(d, mode)).expect("the motion program builds")
+    let (job, _) = postpro_motion::Job::new(kin, path, mode, None, d.default_work_offset()).expect("the tools");
+    postpro_motion::collect(path, solved, kin, &motion_options(d, mode, true), &job).expect("the motion program builds")
 }

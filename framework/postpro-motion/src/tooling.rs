@@ -1,0 +1,185 @@
+//! The tools of a program: for every tool change of the CL file, the tool's number, name, length
+//! and radius offset registers, diameter, corner radius and length, from the CL file (`LOADTL`,
+//! `LOAD/TOOL`, `TLDATA`, `CUTTER`, NX `TOOL PATH/…,TOOL,name`) and from the shop's tool table,
+//! whose entries win: it is what the machine's controller holds.
+
+use postpro_cl::{ItemKind, Span, ToolPath, ToolShape};
+use postpro_machine::model::Machine;
+use postpro_machine::tools::ToolTable;
+
+use crate::Warning;
+use crate::block::Mode;
+
+/// One tool of the program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tool {
+    /// Tool number (`T`).
+    pub number: u32,
+    /// Name, when the CL file or the tool table gives one.
+    pub name: Option<String>,
+    /// Length-offset register (`H`): the tool table's, the CL file's `ADJUST`, or the number.
+    pub length_register: u32,
+    /// Radius-offset register (`D`): the tool table's, or the number.
+    pub radius_register: u32,
+    /// Diameter (mm), when known.
+    pub diameter: Option<f64>,
+    /// Corner radius (mm), when known.
+    pub corner_radius: Option<f64>,
+    /// Length from the spindle nose to the tip (mm), when known.
+    pub length: Option<f64>,
+}
+
+/// The tools of a program and where each is loaded.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Tooling {
+    /// The tools, one per number, in order of first use.
+    pub tools: Vec<Tool>,
+    /// Each tool change: the item index of its `ItemKind::ToolChange` in the tool path (or, for a
+    /// tool the CL file never loads, of its first motion) and the tool (index into `tools`).
+    pub changes: Vec<Change>,
+}
+
+/// One tool change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Change {
+    /// The item the tool is loaded at.
+    pub item: usize,
+    /// The tool: an index into [`Tooling::tools`].
+    pub tool: usize,
+    /// The CL file loads no tool before its first motion: this one is assumed, and written.
+    pub assumed: bool,
+}
+
+impl Tooling {
+    /// The tool loaded at item `item`, if a change happens there.
+    pub fn change_at(&self, item: usize) -> Option<&Change> {
+        self.changes.binary_search_by_key(&item, |c| c.item).ok().map(|i| &self.changes[i])
+    }
+}
+
+/// The tools of `path`, with `table`'s entries over the CL file's, and what had to be assumed.
+pub fn tooling(path: &ToolPath, table: Option<&ToolTable>) -> (Tooling, Vec<Warning>) {
+    let mut out = Tooling::default();
+    let mut warnings = Vec::new();
+    // The geometry given since the last change (NX, SOLIDWORKS: before the change; Fusion:
+    // before too; Creo and CATIA give none): it belongs to the next change, or to the current
+    // tool when no change follows before the motion.
+    let mut shape: Option<ToolShape> = None;
+    let mut pending: Option<usize> = None; // the change whose geometry may still follow
+    let mut moved = false;
+    for (k, item) in path.items.iter().enumerate() {
+        match &item.kind {
+            ItemKind::ToolShape(s) => match pending {
+                // After the change, before its first motion (CUTTER after LOADTL): this tool's.
+                Some(c) => {
+                    let tool = out.changes[c].tool;
+                    fill_shape(&mut out.tools[tool], s, table);
+                }
+                None => shape = Some(*s),
+            },
+            ItemKind::ToolChange(t) => {
+                let tool = tool_index(&mut out.tools, t.number, t.name.clone(), t.adjust, table);
+                if let Some(s) = shape.take() {
+                    fill_shape(&mut out.tools[tool], &s, table);
+                }
+                out.changes.push(Change { item: k, tool, assumed: false });
+                pending = Some(out.changes.len() - 1);
+            }
+            ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_) => {
+                if !moved && out.changes.is_empty() {
+                    // No tool loaded before the first motion: the only tool of the table, or T1.
+                    let only = table.filter(|t| t.tools.len() == 1).map(|t| t.tools[0].number);
+                    let number = only.unwrap_or(1);
+                    let tool = tool_index(&mut out.tools, number, None, None, table);
+                    if let Some(s) = shape.take() {
+                        fill_shape(&mut out.tools[tool], &s, table);
+                    }
+                    out.changes.push(Change { item: k, tool, assumed: true });
+                    let from = if only.is_some() { "the only tool of the tool table" } else { "assumed" };
+                    warnings.push(Warning {
+                        span: item.span,
+                        message: format!(
+                            "the CL file loads no tool before its first move: T{number} ({from}) is written; \
+                             load the tool in the CL file (LOADTL, LOAD/TOOL) or give a tool table with one tool"
+                        ),
+                    });
+                }
+                moved = true;
+                pending = None;
+            }
+            _ => {}
+        }
+    }
+    (out, warnings)
+}
+
+/// The index of tool `number` in `tools`, added (with the table's entry) if new.
+fn tool_index(
+    tools: &mut Vec<Tool>,
+    number: u32,
+    name: Option<String>,
+    adjust: Option<u32>,
+    table: Option<&ToolTable>,
+) -> usize {
+    if let Some(i) = tools.iter().position(|t| t.number == number) {
+        if tools[i].name.is_none() {
+            tools[i].name = name;
+        }
+        return i;
+    }
+    let entry = table.and_then(|t| t.get(number));
+    tools.push(Tool {
+        number,
+        name: entry.and_then(|e| e.name.clone()).or(name),
+        length_register: entry.and_then(|e| e.h).or(adjust).unwrap_or(number),
+        radius_register: entry.map_or(number, |e| e.radius_register()),
+        diameter: entry.and_then(|e| e.radius).map(|r| 2.0 * r),
+        corner_radius: None,
+        length: entry.and_then(|e| e.length),
+    });
+    tools.len() - 1
+}
+
+/// The CL file's geometry for a tool, where the tool table gives none.
+fn fill_shape(tool: &mut Tool, shape: &ToolShape, table: Option<&ToolTable>) {
+    let entry = table.and_then(|t| t.get(tool.number));
+    if entry.and_then(|e| e.radius).is_none() {
+        tool.diameter = Some(shape.diameter);
+    }
+    tool.corner_radius = Some(shape.corner_radius);
+    if entry.and_then(|e| e.length).is_none()
+        && let Some(l) = shape.length.filter(|l| *l > 0.0)
+    {
+        tool.length = Some(l);
+    }
+}
+
+/// The tool length each tool is solved with in `mode` on `machine`: 0 where the controller
+/// applies it along the spindle (no rotary axis turns the tool), else the tool's own (the tool
+/// table's, the CL file's, or the machine definition's when it gives one). `Err(tool)` for a
+/// tool whose length is needed and unknown (a head machine in a joint mode); in TCP mode the
+/// controller applies it, and the prediction takes the machine definition's.
+pub fn kinematic_lengths(machine: &Machine, tooling: &Tooling, mode: Mode) -> Result<Vec<f64>, usize> {
+    let head = !machine.chain.tool.is_empty();
+    tooling
+        .tools
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            if !head {
+                return Ok(0.0);
+            }
+            let default = (machine.chain.tool_length > 0.0).then_some(machine.chain.tool_length);
+            match t.length.or(default) {
+                Some(l) => Ok(l),
+                None if mode == Mode::Tcp => Ok(machine.chain.tool_length),
+                None => Err(i),
+            }
+        })
+        .collect()
+}
+
+/// Where a tool with no length is needed: the span of its change, for the error.
+pub fn change_span(path: &ToolPath, change: &Change) -> Span {
+    path.items.get(change.item).map_or_else(Span::default, |i| i.span)
+}
