@@ -22,6 +22,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
+pub mod compare;
+mod error;
+pub mod nc;
+pub mod rs274;
+
+pub use error::Error;
+
 /// The repository root (the workspace root).
 pub fn repo_root() -> PathBuf {
     // This package sits in `<repo>/tests`. Canonical, so that paths found by walking a folder
