@@ -161,7 +161,7 @@ fn subsequence(
 /// The length of the feed path: straight feeds and arcs (helices and full turns included),
 /// rapids left out.
 pub fn feed_path_length(motions: &[Motion]) -> f64 {
-    motions.iter().filter(|m| m.is_feed()).map(Motion::length).sum()
+    motions.iter().filter(|m| m.is_feed()).map(Motion::length).fold(0.0, |sum, l| sum + l)
 }
 
 /// The point farthest from a feed path.

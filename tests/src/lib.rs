@@ -24,6 +24,7 @@ use std::sync::OnceLock;
 
 pub mod compare;
 mod error;
+pub mod golden;
 pub mod nc;
 pub mod rs274;
 

@@ -292,7 +292,8 @@ pub enum EventKind {
         axes: Vec<char>,
     },
     /// A move in the work frame whose end is not fully known (it leaves an axis where a
-    /// machine-frame move put it): the coordinates it programmed.
+    /// machine-frame move put it), or a feed from a start not fully known (a probing move from
+    /// where the operator left the tool): where it goes, as far as known.
     Positioning {
         /// At rapid traverse or at the feed.
         rapid: bool,
