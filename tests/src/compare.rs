@@ -177,7 +177,7 @@ pub struct Farthest {
 
 /// How many feed motions past the best so far the search for a point's nearest motion looks
 /// before it stops, and how far back from the previous point's.
-const WINDOW: usize = 64;
+pub const WINDOW: usize = 64;
 
 /// The largest distance from `points` (in path order, e.g. the CL file's feed points) to the feed
 /// motions of `motions` (rapids left out); `None` without points.

@@ -10,9 +10,18 @@
 //!   file under `../shared/data` (corpus, peer inputs, hold-out: [`real_cl_files`]) for its arc
 //!   sense, operations and cycles.
 //!
+//! - `harness.rs`: the validation harness below against the peers' programs and CL files.
+//!
 //! This library holds the helpers those tests share: where the data lives. The plugin tests of
 //! `postpro-plugins` and `postpro` use it too (as a dev-dependency) to build the plugins of
-//! `plugins/` once per test binary.
+//! `plugins/` once per test binary. And it is the validation harness of the golden and
+//! back-simulation tests (`docs/validation-harness.md`):
+//!
+//! - [`nc`]: an NC program as the machine runs it (motions with exact geometry, events);
+//! - [`rs274`]: LinuxCNC's `rs274` run on a program, its canonical calls read into an [`nc::Program`];
+//! - [`golden`]: readers of the Fanuc/Haas and Heidenhain programs other posts wrote, and the
+//!   pairs of CL file and program in `../shared/data/peers`;
+//! - [`compare`]: comparators (motions in order, arcs, feed path length, points off a path).
 //!
 //! Run with `cargo test -p tests`; after an intended change of the reader's output, review the
 //! snapshots with `cargo insta review` (or `INSTA_UPDATE=always cargo test -p tests`, then
