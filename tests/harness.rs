@@ -21,6 +21,23 @@ fn read(path: &Path, reader: fn(&str, &str) -> Result<Program, tests::Error>) ->
     reader(&name, &text)
 }
 
+/// What a program holds, in one line.
+fn summary(p: &Program) -> String {
+    let count = |wanted: fn(&EventKind) -> bool| p.events.iter().filter(|e| wanted(&e.kind)).count();
+    format!(
+        "{}: {} motions ({} arcs), feed path {:.4} {}, {} holes, {} machine-frame moves, {} positionings, {} unresolved",
+        p.name,
+        p.motions.len(),
+        p.motions.iter().filter(|m| m.arc().is_some()).count(),
+        feed_path_length(&p.motions),
+        if p.units == Units::Inch { "in" } else { "mm" },
+        count(|k| matches!(k, EventKind::Hole { .. })),
+        count(|k| matches!(k, EventKind::MachineFrameMove { .. })),
+        count(|k| matches!(k, EventKind::Positioning { .. })),
+        count(|k| matches!(k, EventKind::Unresolved { .. })),
+    )
+}
+
 fn report(text: &str) {
     let _ = writeln!(std::io::stderr(), "{text}");
 }
@@ -34,16 +51,7 @@ fn every_program_of_the_nx_haas_post_reads() {
         for path in &case.expected {
             let p = read(path, fanuc::read).unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(p.units, Units::Inch, "{}", p.name);
-            let arcs = p.motions.iter().filter(|m| m.arc().is_some()).count();
-            let machine = p.events.iter().filter(|e| matches!(e.kind, EventKind::MachineFrameMove { .. })).count();
-            let positioning = p.events.iter().filter(|e| matches!(e.kind, EventKind::Positioning { .. })).count();
-            let _ = writeln!(
-                out,
-                "{}: {} motions ({arcs} arcs), feed path {:.4} in, {machine} machine-frame moves, {positioning} positionings",
-                case.name,
-                p.motions.len(),
-                feed_path_length(&p.motions)
-            );
+            let _ = writeln!(out, "{}", summary(&p));
             assert!(p.motions.iter().any(|m| m.is_feed()), "{}", p.name);
             // NX's post writes its arcs in G17.
             assert!(p.motions.iter().filter_map(|m| m.arc()).all(|a| a.plane == Plane::Xy), "{}", p.name);
@@ -63,16 +71,7 @@ fn every_program_of_clsplit_reads_but_its_nan_set_up() {
         for path in &case.expected {
             match read(path, heidenhain::read) {
                 Ok(p) => {
-                    let arcs = p.motions.iter().filter(|m| m.arc().is_some()).count();
-                    let holes = p.events.iter().filter(|e| matches!(e.kind, EventKind::Hole { .. })).count();
-                    let unresolved = p.events.iter().filter(|e| matches!(e.kind, EventKind::Unresolved { .. })).count();
-                    let _ = writeln!(
-                        out,
-                        "{}: {} motions ({arcs} arcs), {holes} holes, {unresolved} unresolved, feed path {:.3} mm",
-                        p.name,
-                        p.motions.len(),
-                        feed_path_length(&p.motions)
-                    );
+                    let _ = writeln!(out, "{}", summary(&p));
                 }
                 Err(e) => refused.push(e.to_string()),
             }

@@ -36,6 +36,8 @@ mod error;
 pub mod golden;
 pub mod nc;
 pub mod rs274;
+#[cfg(test)]
+mod testing;
 
 pub use error::Error;
 
@@ -117,6 +119,19 @@ pub fn built_plugins() -> &'static Path {
         assert!(out.status.success(), "cargo build of the plugins failed:\n{}", String::from_utf8_lossy(&out.stderr));
         dir
     })
+}
+
+/// Where `.ci/run interpreters` installs the real NC interpreters: `$POSTPRO_CI_TOOLS`, else
+/// `$XDG_CACHE_HOME/postpro-ci` or `~/.cache/postpro-ci` (`None` without a home).
+pub fn ci_tools() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("POSTPRO_CI_TOOLS").filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(dir));
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .filter(|d| !d.is_empty())
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+    Some(cache.join("postpro-ci"))
 }
 
 /// The peer post-processor data, `../shared/data/peers` seen from the repository root.

@@ -52,7 +52,7 @@ impl Rs274 {
             rs274.run_text("probe.ngc", "G0 X1\nM2\n", &[])?;
             return Ok(Some(rs274));
         }
-        let mut candidates: Vec<PathBuf> = ci_tools().map(|t| t.join("linuxcnc/rs274")).into_iter().collect();
+        let mut candidates: Vec<PathBuf> = crate::ci_tools().map(|t| t.join("linuxcnc/rs274")).into_iter().collect();
         candidates.push(PathBuf::from("rs274"));
         Ok(candidates
             .into_iter()
@@ -145,19 +145,6 @@ impl Rs274 {
         }
         read_canon(name, &String::from_utf8_lossy(&out.stdout))
     }
-}
-
-/// Where `.ci/run` installs the interpreters: `$POSTPRO_CI_TOOLS`, else
-/// `$XDG_CACHE_HOME/postpro-ci` or `~/.cache/postpro-ci`.
-fn ci_tools() -> Option<PathBuf> {
-    if let Some(dir) = std::env::var_os("POSTPRO_CI_TOOLS").filter(|d| !d.is_empty()) {
-        return Some(PathBuf::from(dir));
-    }
-    let cache = std::env::var_os("XDG_CACHE_HOME")
-        .filter(|d| !d.is_empty())
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
-    Some(cache.join("postpro-ci"))
 }
 
 /// A LinuxCNC tool table for the standalone `rs274` from `(number, length, diameter)` in

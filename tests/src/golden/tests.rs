@@ -15,7 +15,15 @@ fn kinds(p: &Program) -> Vec<&'static str> {
 }
 
 fn close3(a: [f64; 3], b: [f64; 3]) -> bool {
-    (0..3).all(|k| (a[k] - b[k]).abs() < 1e-9)
+    crate::testing::close3(a, b, 1e-9)
+}
+
+/// Each text is refused by `read` with the message.
+fn refused(read: fn(&str, &str) -> Result<Program, Error>, name: &str, cases: &[(&str, &str)]) {
+    for (text, expected) in cases {
+        let e = read(name, text).expect_err(text);
+        assert_eq!(e.to_string(), *expected);
+    }
 }
 
 #[test]
@@ -102,10 +110,7 @@ fn fanuc_errors_name_the_line_and_column() {
         ("G21 G0 X0 Y0 Z0\nG68 X0 Y0 R45\n", "t:2:1: G68 is not read by this parser"),
         ("G21 G0 X0 Y0 Z0\nG1 X1 X2 F1\n", "t:2:7: `X` twice in one block"),
     ];
-    for (text, expected) in cases {
-        let e = fanuc::read("t", text).expect_err(text);
-        assert_eq!(e.to_string(), expected);
-    }
+    refused(fanuc::read, "t", &cases);
 }
 
 /// The same program read by the Fanuc reader and by LinuxCNC's rs274 (arcs in the three
@@ -360,10 +365,7 @@ END PGM 0TREF MM
         ("BEGIN PGM A MM\nCYCL DEF 262 THREAD MILLING\n", "a:2:1: cycle 262 is not read"),
         ("L X+0 Y+0 Z+0 FMAX\nEND PGM A MM\n", "a:1:1: no units: expected G20/G21 or BEGIN PGM … MM|INCH"),
     ];
-    for (text, expected) in cases {
-        let e = heidenhain::read("a", text).expect_err(text);
-        assert_eq!(e.to_string(), expected);
-    }
+    refused(heidenhain::read, "a", &cases);
 }
 
 #[test]

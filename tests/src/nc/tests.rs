@@ -1,6 +1,7 @@
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use super::*;
+use crate::testing::{close, close3};
 
 fn arc(from: [f64; 3], to: [f64; 3], center: [f64; 3], plane: Plane, clockwise: bool, full_turns: u32) -> Motion {
     Motion {
@@ -16,14 +17,6 @@ fn arc(from: [f64; 3], to: [f64; 3], center: [f64; 3], plane: Plane, clockwise: 
 
 fn feed(from: [f64; 3], to: [f64; 3]) -> Motion {
     Motion { kind: MotionKind::Feed, from, from_known: true, to, rotary: Rotary::default(), feed: Some(100.0), line: 1 }
-}
-
-fn close(a: f64, b: f64, tol: f64) -> bool {
-    (a - b).abs() <= tol
-}
-
-fn close3(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
-    (0..3).all(|k| close(a[k], b[k], tol))
 }
 
 /// The lengths LinuxCNC's rs274 computes for the same arcs (the rate of an inverse-time `F1`

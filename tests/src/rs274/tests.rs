@@ -1,12 +1,5 @@
 use super::*;
-
-fn close(a: f64, b: f64, tol: f64) -> bool {
-    (a - b).abs() <= tol
-}
-
-fn close3(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
-    (0..3).all(|k| close(a[k], b[k], tol))
-}
+use crate::testing::{close, close3};
 
 #[test]
 fn every_block_gets_its_line_as_n_word() {
