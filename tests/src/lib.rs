@@ -9,7 +9,6 @@
 //!   syntax in `ok_*.cl`), pinned with insta snapshots in `tests/snapshots/`; and every real CL
 //!   file under `../shared/data` (corpus, peer inputs, hold-out: [`real_cl_files`]) for its arc
 //!   sense, operations and cycles.
-//!
 //! - `harness.rs`: the validation harness below against the peers' programs and CL files.
 //!
 //! This library holds the helpers those tests share: where the data lives. The plugin tests of
