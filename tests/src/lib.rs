@@ -9,10 +9,18 @@
 //!   syntax in `ok_*.cl`), pinned with insta snapshots in `tests/snapshots/`; and every real CL
 //!   file under `../shared/data` (corpus, peer inputs, hold-out: [`real_cl_files`]) for its arc
 //!   sense, operations and cycles.
+//! - `harness.rs`: the validation harness below against the peers' programs and CL files.
 //!
 //! This library holds the helpers those tests share: where the data lives. The plugin tests of
 //! `postpro-plugins` and `postpro` use it too (as a dev-dependency) to build the plugins of
-//! `plugins/` once per test binary.
+//! `plugins/` once per test binary. And it is the validation harness of the golden and
+//! back-simulation tests (`docs/validation-harness.md`):
+//!
+//! - [`nc`]: an NC program as the machine runs it (motions with exact geometry, events);
+//! - [`rs274`]: LinuxCNC's `rs274` run on a program, its canonical calls read into an [`nc::Program`];
+//! - [`golden`]: readers of the Fanuc/Haas and Heidenhain programs other posts wrote, and the
+//!   pairs of CL file and program in `../shared/data/peers`;
+//! - [`compare`]: comparators (motions in order, arcs, feed path length, points off a path).
 //!
 //! Run with `cargo test -p tests`; after an intended change of the reader's output, review the
 //! snapshots with `cargo insta review` (or `INSTA_UPDATE=always cargo test -p tests`, then
@@ -21,6 +29,16 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
+
+pub mod compare;
+mod error;
+pub mod golden;
+pub mod nc;
+pub mod rs274;
+#[cfg(test)]
+mod testing;
+
+pub use error::Error;
 
 /// The repository root (the workspace root).
 pub fn repo_root() -> PathBuf {
@@ -100,6 +118,19 @@ pub fn built_plugins() -> &'static Path {
         assert!(out.status.success(), "cargo build of the plugins failed:\n{}", String::from_utf8_lossy(&out.stderr));
         dir
     })
+}
+
+/// Where `.ci/run interpreters` installs the real NC interpreters: `$POSTPRO_CI_TOOLS`, else
+/// `$XDG_CACHE_HOME/postpro-ci` or `~/.cache/postpro-ci` (`None` without a home).
+pub fn ci_tools() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("POSTPRO_CI_TOOLS").filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(dir));
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .filter(|d| !d.is_empty())
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+    Some(cache.join("postpro-ci"))
 }
 
 /// The peer post-processor data, `../shared/data/peers` seen from the repository root.

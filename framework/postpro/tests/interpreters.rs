@@ -23,6 +23,8 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
+use tests::ci_tools;
+
 /// Each bundled example on a machine where it solves. The Manta (600 mm) exceeds the travels
 /// of both built-ins; the nutating head-head example machine holds it.
 const CASES: [(&str, &str); 6] = [
@@ -52,18 +54,6 @@ fn out_dir() -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("interpreters");
     std::fs::create_dir_all(&dir).expect("the test's output folder");
     dir
-}
-
-/// Where `.ci/run` installs the interpreters when `POSTPRO_CI_TOOLS` does not say.
-fn ci_tools() -> Option<PathBuf> {
-    if let Some(dir) = std::env::var_os("POSTPRO_CI_TOOLS").filter(|d| !d.is_empty()) {
-        return Some(PathBuf::from(dir));
-    }
-    let cache = std::env::var_os("XDG_CACHE_HOME")
-        .filter(|d| !d.is_empty())
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
-    Some(cache.join("postpro-ci"))
 }
 
 fn under_ci() -> bool {
