@@ -25,8 +25,9 @@ mod render;
 pub use dialect::{DIALECTS, Dialect, TcpStyle, WorkOffsets, dialect};
 pub use format::{number, number_trimmed, push_number};
 pub use program::{
-    Annotation, AxisInfo, Block, BlockSink, Header, MarkedSlowdown, Mode, OperationPrediction, Options, Prediction,
-    Program, Tool, Word, WorkOffsetWord, build, build_blocks, check_mode, clean_comment, header, motion_options, tools,
+    Annotation, AxisInfo, Block, BlockSink, CycleHole, Header, MarkedSlowdown, Mode, OperationPrediction, Options,
+    Prediction, Program, Tool, Word, WorkOffsetWord, build, build_blocks, check_mode, clean_comment, header,
+    motion_options, tools,
 };
 pub use render::{TEMPLATES, builtin_template, render, write_program};
 

@@ -206,6 +206,55 @@ pub struct Word {
     pub text: String,
 }
 
+/// A hole of a canned cycle, for the template (`kind` = `cycle_hole`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CycleHole {
+    /// Block number, when numbering.
+    n: Option<u32>,
+    /// The first hole of the cycle: its block defines the cycle.
+    first: bool,
+    /// `drill`, `deep`, `chip_break`, `tap` or `bore`.
+    cycle: postpro_cl::CycleKind,
+    /// The ISO code: `G81`, `G82` (drill with a dwell), `G83`, `G73`, `G84`, `G85`, `G89`
+    /// (bore with a dwell).
+    code: &'static str,
+    /// The hole's position words across the hole axis that change (all on the first hole).
+    words: Vec<Word>,
+    /// The bottom (`Z…`), absolute.
+    bottom: Word,
+    /// The R plane, absolute, as written.
+    r_plane: String,
+    /// The hole's top (Siemens `RFP`, Heidenhain `Q203`), absolute, as written.
+    top: String,
+    /// The level the tool starts at and returns to with `to_initial` (Siemens `RTP`),
+    /// absolute, as written.
+    initial: String,
+    /// The R plane above the top (Siemens `SDIS`, Heidenhain `Q200`), as written.
+    clearance: String,
+    /// The depth below the top (Heidenhain `Q201` negated), as written.
+    depth: String,
+    /// The return level above the top (Heidenhain `Q204`), as written.
+    return_height: String,
+    /// The hole's bottom or R plane differs from the hole before: written again.
+    planes_change: bool,
+    /// Return to the start level after each hole (`G98`), else to the R plane (`G99`).
+    to_initial: bool,
+    /// The first peck, as written (and the following ones: `peck_next`).
+    peck: Option<String>,
+    /// Each following peck, as written.
+    peck_next: Option<String>,
+    /// The dwell at the bottom in seconds, as written.
+    dwell: Option<String>,
+    /// The dwell in milliseconds (Fanuc `P`), as written.
+    dwell_ms: Option<String>,
+    /// The F word's value as written.
+    feed: String,
+    /// A tap's pitch (feed per spindle revolution), as written, when the spindle speed is known.
+    pitch: Option<String>,
+    /// A note for the end of the line.
+    note: Option<String>,
+}
+
 /// One block of the program. `kind` tells the template which one.
 #[derive(Clone, Debug, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -307,6 +356,14 @@ pub enum Block {
         feed: Option<String>,
         /// A note for the end of the line.
         note: Option<String>,
+    },
+    /// A hole of a canned cycle: the first defines the cycle (`G81 … R… Z…`, `MCALL CYCLE81(…)`,
+    /// `CYCL DEF 200`), each one is drilled where its block stands.
+    CycleHole(Box<CycleHole>),
+    /// The canned cycle ends (`G80`, `MCALL`).
+    CycleOff {
+        /// Block number, when numbering.
+        n: Option<u32>,
     },
     /// The tool's length offset, on again after a machine-coordinate retract cancelled it
     /// (Siemens `D…`).
@@ -450,6 +507,7 @@ pub fn motion_options(dialect: &Dialect, mode: Mode, native_arcs: bool) -> postp
         } else {
             postpro_motion::Arcs::Linear
         },
+        cycles: true,
         clearance: true,
     }
 }
@@ -871,6 +929,7 @@ impl<'a> Formatter<'a> {
             BlockKind::Linear(linear) => self.linear(linear),
             BlockKind::Arc(arc) => self.arc(arc),
             BlockKind::Spline(spline) => self.spline(spline),
+            BlockKind::Cycle(cycle) => self.cycle(cycle),
             BlockKind::ToolChange(t) => {
                 let n = self.n();
                 self.length_register = t.length_register;
@@ -1010,6 +1069,80 @@ impl<'a> Formatter<'a> {
             note,
         });
     }
+    /// A canned cycle: a block per hole (the first defines the cycle), then its end.
+    fn cycle(&mut self, cycle: &postpro_motion::Cycle) {
+        use postpro_cl::CycleKind;
+        self.length_on();
+        let axis = cycle.axis;
+        let decimals = self.decimals(axis);
+        let text = |f: &Self, v: f64| {
+            let mut t = String::new();
+            push_number(&mut t, v / f.unit, decimals, f.dialect.explicit_plus);
+            t
+        };
+        // Relative values and pecks with their decimal point always (an integer Q on a Fanuc is
+        // read in thousandths).
+        let plain = |f: &Self, v: f64| crate::format::number(v / f.unit, decimals, false);
+        let code = match (cycle.kind, cycle.dwell.is_some()) {
+            (CycleKind::Drill, false) => "G81",
+            (CycleKind::Drill, true) => "G82",
+            (CycleKind::Deep, _) => "G83",
+            (CycleKind::ChipBreak, _) => "G73",
+            (CycleKind::Tap, _) => "G84",
+            (CycleKind::Bore, false) => "G85",
+            (CycleKind::Bore, true) => "G89",
+        };
+        let across =
+            AxisSet::of(self.machine.axes.len(), |i| i != axis && self.machine.axes[i].kind == AxisKind::Linear);
+        let mut previous: Option<(f64, f64)> = None;
+        for (h, hole) in cycle.holes.iter().enumerate() {
+            self.notes_upto(hole.at.step);
+            let first = h == 0;
+            let (feed, note) = if first { self.feed(cycle.feed, cycle.note.as_deref(), true) } else { (None, None) };
+            let words = self.axis_words(&hole.at.axes, across, first);
+            let top = hole.at.axes[axis];
+            let planes_change =
+                previous.is_some_and(|(b, r)| (b - hole.bottom).abs() > 1e-9 || (r - hole.r_plane).abs() > 1e-9);
+            previous = Some((hole.bottom, hole.r_plane));
+            let letter = self.machine.axes[axis].letter.clone();
+            let bottom = Word { letter, value: hole.bottom / self.unit, text: text(self, hole.bottom) };
+            let pitch = match (cycle.kind, cycle.feed, cycle.rpm) {
+                (CycleKind::Tap, FeedWord::PerMinute(f), Some(rpm)) if rpm > 0.0 => Some(plain(self, f / rpm)),
+                (CycleKind::Tap, FeedWord::PerRevolution(p), _) => Some(plain(self, p)),
+                _ => None,
+            };
+            let n = self.n();
+            self.push(Block::CycleHole(Box::new(CycleHole {
+                n,
+                first,
+                cycle: cycle.kind,
+                code,
+                words,
+                bottom,
+                r_plane: text(self, hole.r_plane),
+                top: text(self, top),
+                initial: text(self, hole.initial),
+                clearance: plain(self, hole.r_plane - top),
+                depth: plain(self, top - hole.bottom),
+                return_height: plain(self, hole.initial - top),
+                planes_change,
+                to_initial: cycle.to_initial,
+                peck: cycle.peck.map(|(first, _)| plain(self, first)),
+                peck_next: cycle.peck.map(|(_, next)| plain(self, next)),
+                dwell: cycle.dwell.map(|d| crate::format::number_trimmed(d, 3)),
+                dwell_ms: cycle.dwell.map(|d| crate::format::number_trimmed((d * 1000.0).round(), 0)),
+                feed: feed.or_else(|| self.last_feed.clone()).unwrap_or_default(),
+                pitch,
+                note,
+            })));
+        }
+        // The cycle leaves the spindle axis at the return level: written again before the next
+        // move along it.
+        self.written[axis] = None;
+        let n = self.n();
+        self.push(Block::CycleOff { n });
+    }
+
     /// A B-spline run: `BSPLINE`, its control points with their `PL`, back to `G1`; the
     /// annotations of its steps where the motion program places them.
     fn spline(&mut self, spline: &postpro_motion::Spline) {

@@ -2,7 +2,7 @@
 //! machine's axis space. Plain data: the prediction reads them, the emitter renders them, neither
 //! decides anything they say.
 
-use postpro_cl::{Coolant, Span};
+use postpro_cl::{Coolant, CycleKind, Span};
 use postpro_kin::bspline;
 use postpro_kin::{Joints, Pose, StepKind};
 use postpro_machine::setup::WorkOffset;
@@ -185,6 +185,57 @@ pub struct Spline {
     pub steps: Vec<(usize, usize)>,
 }
 
+/// A canned cycle: the same motion at each of its holes, written as the controller's cycle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cycle {
+    /// What it does at each hole.
+    pub kind: CycleKind,
+    /// The holes, in order.
+    pub holes: Vec<Hole>,
+    /// The linear axis along the holes (the spindle's), an index into `Machine::axes`.
+    pub axis: usize,
+    /// Peck depths (mm): the first, and each following one.
+    pub peck: Option<(f64, f64)>,
+    /// Dwell at the bottom (s).
+    pub dwell: Option<f64>,
+    /// The F word.
+    pub feed: FeedWord,
+    /// A remark for the end of the line (a feed limited to the machine's range).
+    pub note: Option<String>,
+    /// After each hole the tool returns to the level it started the cycle at (`G98`), else to
+    /// the R plane (`G99`).
+    pub to_initial: bool,
+    /// The spindle speed in force (rpm), for a tap's pitch.
+    pub rpm: Option<f64>,
+    /// The motion the controller makes, in order, for the prediction.
+    pub motion: Vec<CycleMove>,
+}
+
+/// One hole of a canned cycle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Hole {
+    /// The hole's top point (where its depth is measured from), in the program's frame.
+    pub at: Position,
+    /// The bottom: the value of the cycle's axis there (mm, program frame).
+    pub bottom: f64,
+    /// The R plane: where the feed starts (mm, program frame).
+    pub r_plane: f64,
+    /// The level the tool starts the hole from and returns to with `to_initial` (mm, program
+    /// frame).
+    pub initial: f64,
+}
+
+/// A move the controller makes in a canned cycle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CycleMove {
+    /// Where it ends.
+    pub to: Position,
+    /// At rapid, else at the cycle's feed.
+    pub rapid: bool,
+    /// A dwell before it (s).
+    pub dwell: f64,
+}
+
 /// A tool change, with the tool's own offsets.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ToolCall {
@@ -240,6 +291,8 @@ pub enum BlockKind {
     Arc(Box<Arc>),
     /// A run of feed moves as one B-spline.
     Spline(Box<Spline>),
+    /// A canned cycle.
+    Cycle(Box<Cycle>),
     /// A tool change.
     ToolChange(ToolCall),
     /// Spindle on.
@@ -290,6 +343,7 @@ impl Block {
             BlockKind::Linear(l) => Some(&l.to),
             BlockKind::Arc(a) => Some(&a.to),
             BlockKind::Spline(s) => s.points.last(),
+            BlockKind::Cycle(c) => c.motion.last().map(|m| &m.to),
             _ => None,
         }
     }

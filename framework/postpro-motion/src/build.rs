@@ -37,6 +37,9 @@ pub struct Options {
     pub feed_range: (f64, f64),
     /// How CL arcs are written.
     pub arcs: Arcs,
+    /// Canned cycles as the controller's cycles where the hole axis is the spindle's (else as
+    /// moves); `false`: always as moves (`--cycles expand`).
+    pub cycles: bool,
     /// Frame the program as a shop runs it: retracts to the machine's clearance around tool
     /// changes, re-orientations and the end, the rotary axes turned alone there, the approach
     /// across then down, the work offset. Off only for studies of the motion alone.
@@ -68,6 +71,7 @@ impl Options {
             inverse_time_range: (0.0, f64::INFINITY),
             feed_range: (0.0, f64::INFINITY),
             arcs: Arcs::Linear,
+            cycles: false,
             clearance: false,
         }
     }
@@ -180,13 +184,22 @@ pub fn build(
     let decisions = &solved.decisions;
     let mut d = 0; // next decision
     for (i, item) in path.items.iter().enumerate() {
+        let hole = matches!(&item.kind, ItemKind::Move(m) if m.kind == MoveKind::Hole);
+        // A cycle's holes end at anything but another hole (or a comment).
+        if !hole && !matches!(item.kind, ItemKind::Comment(_) | ItemKind::Record(_)) {
+            b.flush_cycle()?;
+        }
         if let Some(change) = job.tooling.change_at(i) {
             b.tool_change(item.span, change.tool)?;
         }
-        let (motion, hole, arc) = match &item.kind {
-            ItemKind::Move(m) => (m.motion, m.kind == MoveKind::Hole, None),
-            ItemKind::Arc(a) => (a.motion, false, Some(a.as_ref())),
-            ItemKind::Nurbs(n) => (n.motion, false, None),
+        if let ItemKind::CycleOn(c) = &item.kind {
+            b.cycle_on(item.span, c)?;
+            continue;
+        }
+        let (motion, arc) = match &item.kind {
+            ItemKind::Move(m) => (m.motion, None),
+            ItemKind::Arc(a) => (a.motion, Some(a.as_ref())),
+            ItemKind::Nurbs(n) => (n.motion, None),
             ItemKind::ToolChange(_) => continue,
             _ => {
                 b.item(item.span, &item.kind);
@@ -210,9 +223,13 @@ pub fn build(
                 b.decision(&decisions[d]);
                 d += 1;
             }
+            if hole && b.hole(first + j, step, motion) {
+                continue;
+            }
             b.step(first + j, step, motion, hole)?;
         }
     }
+    b.flush_cycle()?;
     while k < solved.steps.len() {
         b.step(k, &solved.steps[k], Motion::Rapid, false)?;
         k += 1;
@@ -264,11 +281,13 @@ pub(crate) struct Builder<'a> {
     /// The tool in the spindle (an index into the job's tools).
     pub(crate) tool: Option<usize>,
     work_offset_written: bool,
-    spindle_rpm: Option<f64>,
+    pub(crate) spindle_rpm: Option<f64>,
     spindle_on: bool,
     coolant_on: bool,
     spindle_seen: bool,
     coolant_seen: bool,
+    /// The canned cycle in force, waiting for its holes.
+    pub(crate) cycle: Option<crate::cycle::PendingCycle>,
     /// The first feed move, for the warnings about what the CL file never says.
     first_feed: Option<Span>,
     /// Feeds limited to the machine's range, each said once.
@@ -279,7 +298,7 @@ pub(crate) struct Builder<'a> {
     /// linearization point.
     run_start: Option<(Step, usize)>,
     /// The last step written or queued, linearization points aside.
-    last_step: Option<(Step, usize)>,
+    pub(crate) last_step: Option<(Step, usize)>,
     /// Decisions held for the run.
     held: Vec<Held>,
     /// Words the reader does not know: carried as comments.
@@ -312,6 +331,7 @@ impl<'a> Builder<'a> {
             spindle_seen: false,
             coolant_seen: false,
             first_feed: None,
+            cycle: None,
             limited: Vec::new(),
             run: Vec::new(),
             run_start: None,
@@ -411,7 +431,7 @@ impl<'a> Builder<'a> {
 
     /// The feed word of a programmed feed (per minute: within the controller's and the
     /// machine's range, said once per value where it is not).
-    fn feed_word(&mut self, feed: postpro_cl::Feed, span: Span) -> (FeedWord, Option<String>) {
+    pub(crate) fn feed_word(&mut self, feed: postpro_cl::Feed, span: Span) -> (FeedWord, Option<String>) {
         match feed.per {
             FeedPer::Revolution => (FeedWord::PerRevolution(feed.value), None),
             FeedPer::Minute => {
@@ -709,10 +729,7 @@ impl<'a> Builder<'a> {
                 };
                 BlockKind::Comment(format!("CUTCOM/{side}: the CL points are tool-centre points; not applied"))
             }
-            ItemKind::CycleOn(c) => {
-                BlockKind::Comment(format!("CYCLE/{} {}: hole positions follow as moves", c.word, c.args))
-            }
-            ItemKind::CycleOff => BlockKind::Comment("CYCLE/OFF".into()),
+            ItemKind::CycleOn(_) | ItemKind::CycleOff => return,
             ItemKind::Delay(d) => {
                 let seconds = match *d {
                     Delay::Seconds(s) => Some(s),

@@ -13,12 +13,14 @@ mod arc;
 mod block;
 mod build;
 mod clearance;
+mod cycle;
 pub mod frame;
 pub mod tooling;
 pub mod travel;
 
 pub use block::{
-    Arc, AxisSet, Block, BlockKind, FeedWord, Linear, MachineRetract, Mode, Plane, Position, Rapid, Spline, ToolCall,
+    Arc, AxisSet, Block, BlockKind, Cycle, CycleMove, FeedWord, Hole, Linear, MachineRetract, Mode, Plane, Position,
+    Rapid, Spline, ToolCall,
 };
 pub use build::{Arcs, Job, Options, build, collect, study};
 pub use frame::{WorkFrame, work_frame};
@@ -96,6 +98,18 @@ pub enum MotionError {
         /// The move.
         #[label("this move")]
         span: Span,
+    },
+    /// A canned cycle the controller cannot run here, and that cannot be written as moves.
+    #[error("{what}")]
+    #[diagnostic(code(motion::cycle), help("{help}"))]
+    Cycle {
+        /// The cycle.
+        #[label("this cycle")]
+        span: Span,
+        /// What is wrong.
+        what: String,
+        /// What can be done.
+        help: String,
     },
     /// A tool's length is needed and unknown.
     #[error("the length of tool T{number} is unknown, and {machine} writes axis values that include it")]

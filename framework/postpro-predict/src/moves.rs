@@ -216,6 +216,27 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
                 }
                 push_block(&mut out, machine, timing, &linear.to, feed, &mut state);
             }
+            MotionKind::Cycle(cycle) => {
+                let feed = match cycle.feed {
+                    FeedWord::PerMinute(f) => Feed::PerMinute(f),
+                    FeedWord::PerRevolution(f) => Feed::PerRevolution(f),
+                    FeedWord::InverseTime(f) => Feed::InverseTime(f, 1),
+                };
+                for m in &cycle.motion {
+                    if m.dwell > 0.0 {
+                        state.stop = true;
+                        state.dwell += m.dwell;
+                    }
+                    push_block(
+                        &mut out,
+                        machine,
+                        Timing::TipFeed,
+                        &m.to,
+                        if m.rapid { Feed::Rapid } else { feed },
+                        &mut state,
+                    );
+                }
+            }
             MotionKind::Spline(spline) => {
                 let first = out.len();
                 for at in &spline.points {

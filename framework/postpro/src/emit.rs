@@ -44,6 +44,10 @@ pub(crate) struct EmitArgs {
     /// (`native`), or always as straight moves within the tolerance (`linear`).
     #[arg(long, value_enum, default_value_t = ArcsArg::Native)]
     arcs: ArcsArg,
+    /// Canned cycles as the controller's cycles where the hole axis is the spindle's (`native`),
+    /// or always as moves (`expand`).
+    #[arg(long, value_enum, default_value_t = CyclesArg::Native)]
+    cycles: CyclesArg,
     #[command(flatten)]
     prediction: PredictionArgs,
     #[command(flatten)]
@@ -67,6 +71,13 @@ pub(crate) struct EmitArgs {
 pub(crate) enum ArcsArg {
     Native,
     Linear,
+}
+
+/// `--cycles`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum CyclesArg {
+    Native,
+    Expand,
 }
 
 /// `--mode`.
@@ -167,7 +178,10 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         output: &output,
         program_name,
         block_numbers: args.block_numbers,
-        linear_arcs: args.arcs == ArcsArg::Linear,
+        shapes: crate::job::Shapes {
+            linear_arcs: args.arcs == ArcsArg::Linear,
+            expand_cycles: args.cycles == CyclesArg::Expand,
+        },
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
     };
     write_job(&job, &writing, &stage)
@@ -187,8 +201,8 @@ pub(crate) struct Writing<'a> {
     pub(crate) program_name: String,
     /// Number the blocks.
     pub(crate) block_numbers: bool,
-    /// CL arcs as straight moves.
-    pub(crate) linear_arcs: bool,
+    /// How arcs and cycles are written.
+    pub(crate) shapes: crate::job::Shapes,
     /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
     pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
 }
@@ -198,7 +212,7 @@ pub(crate) struct Writing<'a> {
 pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn(&str)) -> ExitCode {
     let (mode, dialect, template, output) = (how.mode, how.dialect, how.template, how.output);
     let (solved, machine, source) = (&job.solved, &job.machine, &job.source);
-    let program = match job.motion(dialect, how.linear_arcs) {
+    let program = match job.motion(dialect, how.shapes) {
         Ok(program) => program,
         Err(code) => {
             stage("");

@@ -135,9 +135,10 @@ pub(crate) fn prepare(
 }
 
 impl Job {
-    /// The motion program of this job for `dialect` (arcs native unless `linear_arcs`), checked
-    /// against the travels; an error is printed with the CL source, warnings are printed.
-    pub(crate) fn motion(&self, dialect: &Dialect, linear_arcs: bool) -> Result<postpro_motion::Program, ExitCode> {
+    /// The motion program of this job for `dialect` (arcs and canned cycles as the controller's
+    /// unless `how` says otherwise), checked against the travels; an error is printed with the CL
+    /// source, warnings are printed.
+    pub(crate) fn motion(&self, dialect: &Dialect, how: Shapes) -> Result<postpro_motion::Program, ExitCode> {
         let kin = self.solver.kinematics();
         let job = postpro_motion::Job {
             frame: postpro_motion::work_frame(kin, self.mode),
@@ -146,7 +147,8 @@ impl Job {
             kinematic_lengths: self.kinematic_lengths.clone(),
             length_compensation: self.machine.chain.tool.is_empty() || self.mode == Mode::Tcp,
         };
-        let options = postpro_emit::motion_options(dialect, self.mode, !linear_arcs);
+        let mut options = postpro_emit::motion_options(dialect, self.mode, !how.linear_arcs);
+        options.cycles = !how.expand_cycles;
         let render =
             |e: postpro_motion::MotionError| report::render_with_source(e, self.source.name(), self.source.text());
         let program =
@@ -169,6 +171,15 @@ pub(crate) fn motion_of(
 ) -> Result<postpro_motion::Program, postpro_motion::MotionError> {
     let (job, _) = postpro_motion::Job::new(kin, path, mode, None, dialect.default_work_offset())?;
     postpro_motion::collect(path, solved, kin, &postpro_emit::motion_options(dialect, mode, true), &job)
+}
+
+/// How arcs and canned cycles are written.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Shapes {
+    /// Every arc as straight moves (`--arcs linear`).
+    pub(crate) linear_arcs: bool,
+    /// Every canned cycle as moves (`--cycles expand`).
+    pub(crate) expand_cycles: bool,
 }
 
 /// The dialect of a machine, or the first one postpro knows when the machine names none it

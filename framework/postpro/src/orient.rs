@@ -134,7 +134,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         return fail(&format!("error: {} has no feed path to orient\n", job.source.name()), 1);
     }
     let mode = args.mode.mode();
-    let original_program = match job.motion(crate::job::machine_dialect(machine), false) {
+    let original_program = match job.motion(crate::job::machine_dialect(machine), crate::job::Shapes::default()) {
         Ok(program) => program,
         Err(code) => return code,
     };
@@ -296,7 +296,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             output: out,
             program_name: name,
             block_numbers: false,
-            linear_arcs: false,
+            shapes: crate::job::Shapes::default(),
             prediction: Some((&args.prediction, &args.marks)),
         };
         return write_job(&oriented, &writing, &|_| {});

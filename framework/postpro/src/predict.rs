@@ -101,6 +101,10 @@ pub(crate) struct PredictArgs {
     /// (`native`), or as straight moves (`linear`), as the main job writes them.
     #[arg(long, value_enum, default_value_t = crate::emit::ArcsArg::Native)]
     arcs: crate::emit::ArcsArg,
+    /// Canned cycles as the controller's cycles (`native`) or as moves (`expand`), as the main
+    /// job writes them.
+    #[arg(long, value_enum, default_value_t = crate::emit::CyclesArg::Native)]
+    cycles: crate::emit::CyclesArg,
     /// The output mode the prediction is for, as the main job's `--mode` (default the same, g1):
     /// `g1` (F is the feed of the linear axes), `inverse-time`, `tcp` or `bspline` (F is the feed
     /// of the tool tip).
@@ -296,8 +300,11 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some() || args.report.is_some();
     let mode = args.mode.mode();
     let planner = effective(args.prediction.planner(), mode);
-    let linear_arcs = args.arcs == crate::emit::ArcsArg::Linear;
-    let program = match job.motion(crate::job::machine_dialect(&job.machine), linear_arcs) {
+    let shapes = crate::job::Shapes {
+        linear_arcs: args.arcs == crate::emit::ArcsArg::Linear,
+        expand_cycles: args.cycles == crate::emit::CyclesArg::Expand,
+    };
+    let program = match job.motion(crate::job::machine_dialect(&job.machine), shapes) {
         Ok(program) => program,
         Err(code) => return code,
     };
