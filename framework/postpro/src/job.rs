@@ -42,6 +42,9 @@ pub(crate) struct Job {
     pub(crate) strict: bool,
 }
 
+/// The end of the main job's error messages: its `nothing` argument of [`prepare`].
+pub(crate) const WRITTEN: &str = "nothing written";
+
 /// Prints `message` and gives the exit code.
 pub(crate) fn fail(message: &str, code: u8) -> ExitCode {
     eprint!("{message}");
@@ -69,8 +72,9 @@ pub(crate) fn warn_all<'w>(
 const PRINTED_WARNINGS: usize = 20;
 
 /// Says on standard error what the reader warned about and what it did not interpret (each word
-/// with its count, as `check` does); returns the number of warnings.
-fn report_reading(source: &Source, path: &ToolPath, strict: bool) -> usize {
+/// with its count, as `check` does), with `notes` also what it passed over; returns the number
+/// of warnings.
+fn report_reading(source: &Source, path: &ToolPath, strict: bool, notes: bool) -> usize {
     let what = if strict { "error" } else { "warning" };
     let warnings: Vec<_> = path.diagnostics.iter().filter(|d| !d.is_error()).collect();
     for d in warnings.iter().take(PRINTED_WARNINGS) {
@@ -95,10 +99,10 @@ fn report_reading(source: &Source, path: &ToolPath, strict: bool) -> usize {
     if !unknown.is_empty() {
         eprintln!("{what}: words not interpreted (written as comments): {}", unknown.join(", "));
     }
-    if !passive.is_empty() {
+    if notes && !passive.is_empty() {
         eprintln!("note: known words without effect on the path, passed over: {}", passive.join(", "));
     }
-    if path.info.listing_lines > 0 {
+    if notes && path.info.listing_lines > 0 {
         eprintln!("note: {} lines of the file are not APT (a listing's header and footer)", path.info.listing_lines);
     }
     warnings.len() + usize::from(!unknown.is_empty())
@@ -141,7 +145,8 @@ pub(crate) fn prepare(
         }
         return Err(fail(&format!("error: {} does not read; {nothing}\n", source.name()), 1));
     }
-    let mut warnings = report_reading(&source, &path, setup.strict);
+    // The main job says what it passes over; the other commands only what may matter.
+    let mut warnings = report_reading(&source, &path, setup.strict, nothing == WRITTEN);
     let moves = path.items.iter().any(|i| {
         matches!(i.kind, postpro_cl::ItemKind::Move(_) | postpro_cl::ItemKind::Arc(_) | postpro_cl::ItemKind::Nurbs(_))
     });
