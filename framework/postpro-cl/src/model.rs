@@ -29,6 +29,22 @@ impl ToolPath {
         self.diagnostics.iter().any(Diagnostic::is_error)
     }
 
+    /// True when a feed move turns the tool axis (simultaneous 4- or 5-axis cutting), false for
+    /// 3-axis and 3+2 programs, whose tool axis changes only at rapids.
+    pub fn turns_tool_while_cutting(&self) -> bool {
+        let mut axis: Option<ToolAxis> = None;
+        for item in &self.items {
+            if let ItemKind::Move(m) = &item.kind {
+                let turned = axis.is_some_and(|a| (a.into_inner() - m.axis.into_inner()).norm() > 1e-6);
+                if turned && matches!(m.motion, Motion::Feed(_)) {
+                    return true;
+                }
+                axis = Some(m.axis);
+            }
+        }
+        false
+    }
+
     /// The linear moves, in order.
     pub fn moves(&self) -> impl Iterator<Item = (&Move, Span)> {
         self.items.iter().filter_map(|i| match &i.kind {

@@ -26,6 +26,7 @@ fn bench(c: &mut Criterion) {
             program_name: "BENCH".into(),
             source_name: "big.cl".into(),
             block_numbers: false,
+            tcp_orientation: Default::default(),
             prediction: None,
             annotations: Vec::new(),
         };

@@ -4,21 +4,50 @@
 
 use postpro_machine::setup::WorkOffset;
 
+use postpro_motion::PlaneKind;
+
 use crate::EmitError;
 use crate::program::WorkOffsetWord;
 
-/// How the controller takes the tool orientation in TCP mode.
+/// The controller's tool-centre-point control: the tool tip in the part frame, the orientation
+/// as the rotary axes' angles or as the tool vector ([`TcpOrientation`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TcpStyle {
-    /// Siemens `TRAORI` with the tool vector in `A3 B3 C3`.
+    /// Siemens `TRAORI`: the rotary axes (`ORIAXES`) or the vector in `A3 B3 C3` (`ORIVECT`).
     Traori,
-    /// Fanuc `G43.5` with the tool vector in `I J K`.
-    G43_5,
-    /// Heidenhain `M128` with `LN` blocks and the tool vector in `TX TY TZ`.
+    /// Fanuc `G43.4 H…` with the rotary axes, `G43.5 H…` with the vector in `I J K`.
+    G43_4,
+    /// Haas `G234 H…` with the rotary axes (no vector form).
+    G234,
+    /// Heidenhain `M128`: `L` blocks with the rotary axes, `LN` blocks with the vector in
+    /// `TX TY TZ`.
     M128,
     /// No tool-centre-point control.
     None,
+}
+
+impl TcpStyle {
+    /// The words of the tool vector, when the controller takes one.
+    pub fn vector_words(self) -> Option<[&'static str; 3]> {
+        match self {
+            TcpStyle::Traori => Some(["A3", "B3", "C3"]),
+            TcpStyle::G43_4 => Some(["I", "J", "K"]),
+            TcpStyle::M128 => Some(["TX", "TY", "TZ"]),
+            TcpStyle::G234 | TcpStyle::None => None,
+        }
+    }
+}
+
+/// How a TCP program gives the tool's orientation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TcpOrientation {
+    /// The rotary axes' angles, as controllers are mostly programmed (the solver's branch).
+    #[default]
+    Angles,
+    /// The tool vector in the part frame (the controller picks the branch).
+    Vectors,
 }
 
 /// A controller dialect.
@@ -58,6 +87,8 @@ pub struct Dialect {
     pub machine_retract_cancels_length: bool,
     /// The work offsets it selects.
     pub work_offsets: WorkOffsets,
+    /// Its working planes for 3+2 set-ups (`G68.2`, `G254`, `CYCLE800`, `PLANE`), if any.
+    pub planes: Option<PlaneKind>,
 }
 
 /// Which work offsets a dialect selects.
@@ -157,6 +188,7 @@ pub const DIALECTS: &[Dialect] = &[
         arc_all_planes: true,
         machine_retract_cancels_length: true,
         work_offsets: WorkOffsets::Siemens,
+        planes: Some(PlaneKind::Tilted),
     },
     Dialect {
         name: "fanuc",
@@ -169,12 +201,32 @@ pub const DIALECTS: &[Dialect] = &[
         feed_range: (0.001, 99_999.0),
         inverse_time_range: Some((0.001, 99_999.0)),
         bspline: false,
-        tcp: TcpStyle::G43_5,
+        tcp: TcpStyle::G43_4,
         feed_decimals: 3,
         arc_turns: false,
         arc_all_planes: true,
         machine_retract_cancels_length: false,
         work_offsets: WorkOffsets::Fanuc,
+        planes: Some(PlaneKind::Tilted),
+    },
+    Dialect {
+        name: "haas",
+        extension: "nc",
+        comment_open: "(",
+        comment_close: ")",
+        comment_forbidden: "()",
+        explicit_plus: false,
+        max_line: 256,
+        feed_range: (0.001, 99_999.0),
+        inverse_time_range: Some((0.001, 99_999.0)),
+        bspline: false,
+        tcp: TcpStyle::G234,
+        feed_decimals: 3,
+        arc_turns: false,
+        arc_all_planes: true,
+        machine_retract_cancels_length: false,
+        work_offsets: WorkOffsets::Haas,
+        planes: Some(PlaneKind::Dynamic),
     },
     Dialect {
         name: "heidenhain",
@@ -193,6 +245,7 @@ pub const DIALECTS: &[Dialect] = &[
         arc_all_planes: false,
         machine_retract_cancels_length: false,
         work_offsets: WorkOffsets::Heidenhain,
+        planes: Some(PlaneKind::Tilted),
     },
     Dialect {
         name: "linuxcnc",
@@ -211,6 +264,7 @@ pub const DIALECTS: &[Dialect] = &[
         arc_all_planes: true,
         machine_retract_cancels_length: false,
         work_offsets: WorkOffsets::LinuxCnc,
+        planes: None,
     },
 ];
 

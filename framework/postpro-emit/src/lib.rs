@@ -22,12 +22,12 @@ mod format;
 mod program;
 mod render;
 
-pub use dialect::{DIALECTS, Dialect, TcpStyle, WorkOffsets, dialect};
+pub use dialect::{DIALECTS, Dialect, TcpOrientation, TcpStyle, WorkOffsets, dialect};
 pub use format::{number, number_trimmed, push_number};
 pub use program::{
     Annotation, AxisInfo, Block, BlockSink, CycleHole, Header, MarkedSlowdown, Mode, OperationPrediction, Options,
-    Prediction, Program, Tool, Word, WorkOffsetWord, build, build_blocks, check_mode, clean_comment, header,
-    motion_options, tools,
+    PlaneOn, Prediction, Program, Tool, Word, WorkOffsetWord, build, build_blocks, check_mode, check_orientation,
+    clean_comment, header, motion_options, tools,
 };
 pub use render::{TEMPLATES, builtin_template, render, write_program};
 
@@ -42,6 +42,13 @@ pub enum EmitError {
         dialect: &'static str,
         /// The mode.
         mode: &'static str,
+    },
+    /// The dialect's TCP takes no tool vector.
+    #[error("the {dialect} dialect's tool-centre-point control takes the rotary axes' angles, not the tool vector")]
+    #[diagnostic(code(emit::tcp_orientation), help("use --tcp-orientation angles"))]
+    TcpOrientation {
+        /// The dialect.
+        dialect: &'static str,
     },
     /// The program could not be written.
     #[error("cannot write the program: {message}")]

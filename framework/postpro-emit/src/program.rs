@@ -5,13 +5,13 @@
 //! documents every field; templates see exactly these names.
 
 use postpro_cl::Coolant;
-use postpro_kin::{Joints, Pose};
+use postpro_kin::Joints;
 use postpro_machine::model::{AxisKind, Machine, ProgramUnits};
-use postpro_motion::{AxisSet, BlockKind, FeedWord, Position};
+use postpro_motion::{AxisSet, BlockKind, FeedWord, PlaneKind, Position};
 use serde::Serialize;
 
 use crate::EmitError;
-use crate::dialect::{Dialect, TcpStyle};
+use crate::dialect::{Dialect, TcpOrientation, TcpStyle};
 use crate::format::push_number;
 
 pub use postpro_motion::Mode;
@@ -27,6 +27,8 @@ pub struct Options {
     pub source_name: String,
     /// Number the blocks (`N10`, `N20`, …).
     pub block_numbers: bool,
+    /// How TCP mode gives the tool's orientation: the rotary axes' angles or the tool vector.
+    pub tcp_orientation: TcpOrientation,
     /// The prediction summary for the header (`header.prediction`); `None` without prediction.
     pub prediction: Option<Prediction>,
     /// Comments to write before the motion of given steps (a predicted slowdown, its cause),
@@ -82,6 +84,8 @@ pub struct Header {
     pub dialect: Dialect,
     /// The mode.
     pub mode: Mode,
+    /// How TCP mode gives the tool's orientation: `angles` or `vectors`.
+    pub tcp_orientation: TcpOrientation,
     /// The generator and its version.
     pub generator: String,
     /// The axes in output order.
@@ -92,6 +96,9 @@ pub struct Header {
     pub linearized_points: usize,
     /// Linearization tolerance, in the program's units, as written (`0.01`).
     pub tolerance: String,
+    /// The machine's contour tolerance (its CNC's path smoothing), in the program's units, as
+    /// written (Haas `G187 E…`).
+    pub contour_tolerance: String,
     /// Decisions of the IKT policy.
     pub decisions: usize,
     /// The program's units: `mm` or `inch`.
@@ -449,12 +456,61 @@ pub enum Block {
         n: Option<u32>,
         /// The length-offset register of the tool in the spindle.
         length_register: u32,
+        /// `angles` (the rotary axes follow as words) or `vectors` (the tool vector does).
+        orientation: TcpOrientation,
     },
     /// Tool-centre-point control off.
     TcpOff {
         /// Block number, when numbering.
         n: Option<u32>,
     },
+    /// A working plane for a 3+2 set-up comes into force (`G68.2 … G53.1`, `G254`,
+    /// `CYCLE800(…)`, `PLANE VECTOR … STAY`). The rotary axes stand at the set-up already
+    /// (turned at the clearance by the block before); the coordinates that follow are the
+    /// plane's (`tilted`) or the part's (`dynamic`).
+    PlaneOn(Box<PlaneOn>),
+    /// The working plane is reset (`G69`, `G255`, `CYCLE800()`, `PLANE RESET STAY`).
+    PlaneOff {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// `tilted` or `dynamic`.
+        plane: PlaneKind,
+    },
+    /// A rotary axis's brake locked or unlocked (the machine definition's M code).
+    Clamp {
+        /// Block number, when numbering.
+        n: Option<u32>,
+        /// The M code (`M10`).
+        code: String,
+        /// Locked, else unlocked.
+        lock: bool,
+        /// The axis's letter.
+        axis: String,
+    },
+}
+
+/// A working plane, for the template (`kind` = `plane_on`). Angles in degrees, vectors as unit
+/// vectors in the part frame, each as written.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlaneOn {
+    /// Block number, when numbering.
+    n: Option<u32>,
+    /// `tilted` (coordinates in the plane) or `dynamic` (in the part frame).
+    plane: PlaneKind,
+    /// Euler angles z, x′, z″ (Fanuc `G68.2 I J K`): the plane = Rz(I)·Rx(J)·Rz(K).
+    euler_zxz: [String; 3],
+    /// Rotations about x, then the new y, then the new z (Siemens `CYCLE800` mode 57):
+    /// the plane = Rx(A)·Ry(B)·Rz(C).
+    euler_xyz: [String; 3],
+    /// The plane's x axis in the part frame (Heidenhain `BX BY BZ`).
+    x: [String; 3],
+    /// Its z axis, the tool axis (Heidenhain `NX NY NZ`).
+    z: [String; 3],
+    /// The rotary axes at the set-up, as written.
+    rotaries: Vec<Word>,
+    /// The direction the first rotary axis turns to reach it: `1` (its value ≥ 0) or `-1`
+    /// (Siemens `_DIR`).
+    direction: i8,
 }
 
 /// Where the blocks go: a `Vec` for the whole context, or a writer that renders each block as
@@ -484,6 +540,14 @@ pub fn clean_comment(dialect: &Dialect, text: &str) -> String {
         .collect()
 }
 
+/// Checks that the dialect gives the tool's orientation so in TCP mode.
+pub fn check_orientation(dialect: &Dialect, orientation: TcpOrientation) -> Result<(), EmitError> {
+    if orientation == TcpOrientation::Vectors && dialect.tcp != TcpStyle::None && dialect.tcp.vector_words().is_none() {
+        return Err(EmitError::TcpOrientation { dialect: dialect.name });
+    }
+    Ok(())
+}
+
 /// Checks that the dialect has the mode.
 pub fn check_mode(dialect: &Dialect, mode: Mode) -> Result<(), EmitError> {
     let supported = match mode {
@@ -509,6 +573,7 @@ pub fn motion_options(dialect: &Dialect, mode: Mode, native_arcs: bool) -> postp
         },
         cycles: true,
         clearance: true,
+        planes: None,
     }
 }
 
@@ -556,6 +621,7 @@ pub fn header(
         machine_description: machine.description.clone(),
         dialect: dialect.clone(),
         mode: motion.mode,
+        tcp_orientation: options.tcp_orientation,
         generator: format!("postpro {}", env!("CARGO_PKG_VERSION")),
         axes: machine
             .axes
@@ -568,6 +634,7 @@ pub fn header(
         cl_points: motion.summary.cl_points,
         linearized_points: motion.summary.linearized_points,
         tolerance: length_text(machine.policy.linearization_tolerance, options.units, 4),
+        contour_tolerance: length_text(machine.cnc.contour_tolerance, options.units, 4),
         decisions: motion.summary.decisions,
         units: options.units.as_str(),
         work_offset,
@@ -653,8 +720,11 @@ struct Formatter<'a> {
     length_off: bool,
     /// Where the last motion block ended.
     previous: Option<Position>,
-    /// Tool-centre-point control is on: positions are the tip and the tool vector.
+    /// Tool-centre-point control is on: positions are the tip and the tool's orientation.
     tcp_active: bool,
+    /// The working plane in force, with the axis values its zero has (subtracted from the linear
+    /// axes' values in a tilted plane).
+    plane: Option<(PlaneKind, Joints)>,
 }
 
 impl<'a> Formatter<'a> {
@@ -678,6 +748,7 @@ impl<'a> Formatter<'a> {
             length_off: false,
             previous: None,
             tcp_active: false,
+            plane: None,
         }
     }
 
@@ -755,11 +826,20 @@ impl<'a> Formatter<'a> {
         }
     }
 
-    /// Axis `i`'s value as written: a length in the program's units, an angle in degrees.
+    /// Axis `i`'s value as written: a length in the program's units (in a tilted working plane,
+    /// from the plane's zero), an angle in degrees.
     fn axis_value(&self, i: usize, value: f64) -> f64 {
         match self.machine.axes[i].kind {
-            AxisKind::Linear => value / self.unit,
+            AxisKind::Linear => (value - self.shift(i)) / self.unit,
             AxisKind::Rotary => value.to_degrees(),
+        }
+    }
+
+    /// What a tilted working plane takes from axis `i`'s values (mm): the value of its zero.
+    fn shift(&self, i: usize) -> f64 {
+        match &self.plane {
+            Some((PlaneKind::Tilted, shift)) => shift.as_slice().get(i).copied().unwrap_or(0.0),
+            _ => 0.0,
         }
     }
 
@@ -784,69 +864,69 @@ impl<'a> Formatter<'a> {
         words
     }
 
-    /// Tool tip and vector in the part frame (TCP mode); of `axes`, the tip coordinates of the
-    /// linear axes in it and the vector if a rotary is.
-    fn tcp_words(&mut self, pose: &Pose, axes: AxisSet) -> Vec<Word> {
-        let (i, j, k) = match self.dialect.tcp {
-            TcpStyle::Traori => ("A3", "B3", "C3"),
-            TcpStyle::G43_5 => ("I", "J", "K"),
-            _ => ("TX", "TY", "TZ"),
-        };
-        let p = pose.tip / self.unit;
-        let a = pose.axis;
+    /// The tool tip in the part frame (TCP mode, a dynamic work offset), with the tool's
+    /// orientation as `orientation` says (none: the arcs, which keep it, and the dynamic work
+    /// offset, where the rotaries stand): the words whose text changed, or all of them with
+    /// `all`. The orientation is written whole whenever any of it changes.
+    fn tip_words(&mut self, to: &Position, orientation: Option<TcpOrientation>, all: bool) -> Vec<Word> {
+        let p = to.pose.tip / self.unit;
         let tip_decimals = if self.options.units == ProgramUnits::Inch { 5 } else { 4 };
-        let entries = [
-            ("X", p.x, tip_decimals),
-            ("Y", p.y, tip_decimals),
-            ("Z", p.z, tip_decimals),
-            (i, a.x, 7),
-            (j, a.y, 7),
-            (k, a.z, 7),
-        ];
-        let linear = &self.machine.chain.linear;
-        let moves = |slot: usize| {
-            if slot < 3 {
-                linear.get(slot).is_none_or(|&axis| axes.contains(axis))
-            } else {
-                (0..self.machine.axes.len()).any(|x| axes.contains(x) && self.machine.axes[x].kind == AxisKind::Rotary)
-            }
-        };
-        let texts: Vec<String> = entries
-            .iter()
-            .map(|&(_, value, decimals)| {
-                let mut text = String::with_capacity(12);
-                push_number(&mut text, value, decimals, self.dialect.explicit_plus);
-                text
-            })
-            .collect();
-        // Positions are modal; the vector is written whole whenever it changes.
-        let vector_changed = (3..6).any(|s| self.written[s].as_deref() != Some(texts[s].as_str())) && moves(3);
         let mut words = Vec::with_capacity(9);
-        for (slot, ((letter, value, _), text)) in entries.into_iter().zip(texts).enumerate() {
-            let changed = if slot < 3 {
-                moves(slot) && self.written[slot].as_deref() != Some(text.as_str())
-            } else {
-                vector_changed
-            };
-            if changed {
-                if self.dialect.tcp == TcpStyle::M128 && slot == 3 {
-                    // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D compensation).
-                    for (n, v) in [("NX", a.x), ("NY", a.y), ("NZ", a.z)] {
-                        let mut t = String::with_capacity(12);
-                        push_number(&mut t, v, 7, true);
-                        words.push(Word { letter: n.to_string(), value: v, text: t });
+        for (slot, (letter, value)) in [("X", p.x), ("Y", p.y), ("Z", p.z)].into_iter().enumerate() {
+            let word = self.word(letter, value, tip_decimals);
+            if all || self.written[slot].as_deref() != Some(word.text.as_str()) {
+                self.written[slot] = Some(word.text.clone());
+                words.push(word);
+            }
+        }
+        match orientation {
+            None => {}
+            Some(TcpOrientation::Angles) => {
+                let rotaries = AxisSet::of(self.machine.axes.len(), |i| self.machine.axes[i].kind == AxisKind::Rotary);
+                words.extend(self.axis_words(&to.axes, rotaries, all));
+            }
+            Some(TcpOrientation::Vectors) => {
+                let letters = self.dialect.tcp.vector_words().unwrap_or(["I", "J", "K"]);
+                let a = to.pose.axis;
+                let vector: Vec<Word> = letters.iter().zip([a.x, a.y, a.z]).map(|(l, v)| self.word(l, v, 7)).collect();
+                let changed = all || (0..3).any(|c| self.written[3 + c].as_deref() != Some(vector[c].text.as_str()));
+                if changed {
+                    if self.dialect.tcp == TcpStyle::M128 {
+                        // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D
+                        // compensation).
+                        for (n, v) in [("NX", a.x), ("NY", a.y), ("NZ", a.z)] {
+                            let mut t = String::with_capacity(12);
+                            push_number(&mut t, v, 7, true);
+                            words.push(Word { letter: n.to_string(), value: v, text: t });
+                        }
+                    }
+                    for (c, w) in vector.into_iter().enumerate() {
+                        self.written[3 + c] = Some(w.text.clone());
+                        words.push(w);
                     }
                 }
-                self.written[slot] = Some(text.clone());
-                words.push(Word { letter: letter.to_string(), value, text });
             }
         }
         words
     }
 
-    /// The words of a position in this mode: the tip and vector in TCP mode, else the axes.
-    fn position_words(&mut self, to: &Position, axes: AxisSet, all: bool) -> Vec<Word> {
-        if self.tcp_active { self.tcp_words(&to.pose, axes) } else { self.axis_words(&to.axes, axes, all) }
+    /// The words of a position in this mode: the tip (and the orientation, with `orientation`)
+    /// in TCP mode, the tip in a dynamic work offset, else the axes of `axes`.
+    fn position_words(&mut self, to: &Position, axes: AxisSet, all: bool, orientation: bool) -> Vec<Word> {
+        if self.tcp_active {
+            let how = orientation.then_some(self.options.tcp_orientation);
+            self.tip_words(to, how, all)
+        } else if matches!(self.plane, Some((PlaneKind::Dynamic, _))) {
+            self.tip_words(to, None, all)
+        } else if self.plane.is_some() {
+            // In a working plane the rotary axes stand (a controller may refuse their words).
+            let linear = AxisSet::of(self.machine.axes.len(), |i| {
+                axes.contains(i) && self.machine.axes[i].kind == AxisKind::Linear
+            });
+            self.axis_words(&to.axes, linear, all)
+        } else {
+            self.axis_words(&to.axes, axes, all)
+        }
     }
 
     /// The length offset on again before motion, where a machine-coordinate retract cancelled it.
@@ -908,7 +988,7 @@ impl<'a> Formatter<'a> {
                 // Before anything the step writes (or where it would, when it writes nothing).
                 self.notes_upto(rapid.to.step);
                 self.length_on();
-                let words = self.position_words(&rapid.to, rapid.axes, false);
+                let words = self.position_words(&rapid.to, rapid.axes, false, true);
                 if !words.is_empty() {
                     let n = self.n();
                     self.push(Block::Rapid { n, words });
@@ -991,7 +1071,24 @@ impl<'a> Formatter<'a> {
                 self.written.iter_mut().for_each(|w| *w = None);
                 self.length_off = false;
                 let n = self.n();
-                self.push(Block::TcpOn { n, length_register: *length_register });
+                let orientation = self.options.tcp_orientation;
+                self.push(Block::TcpOn { n, length_register: *length_register, orientation });
+            }
+            BlockKind::PlaneOn(plane) => self.plane_on(plane),
+            BlockKind::PlaneOff => {
+                if let Some((plane, _)) = self.plane.take() {
+                    self.written.iter_mut().for_each(|w| *w = None);
+                    let n = self.n();
+                    self.push(Block::PlaneOff { n, plane });
+                }
+            }
+            BlockKind::Clamp { axis, lock } => {
+                let a = &self.machine.axes[*axis];
+                if let Some(clamp) = &a.clamp {
+                    let code = if *lock { clamp.lock.clone() } else { clamp.unlock.clone() };
+                    let (axis, n) = (a.letter.clone(), self.n());
+                    self.push(Block::Clamp { n, code, lock: *lock, axis });
+                }
             }
             BlockKind::TcpOff => {
                 self.tcp_active = false;
@@ -1002,12 +1099,42 @@ impl<'a> Formatter<'a> {
         }
     }
 
+    /// A working plane comes into force: its angles and vectors for the dialects' commands.
+    fn plane_on(&mut self, plane: &postpro_motion::WorkPlane) {
+        self.plane = Some((plane.kind, plane.shift));
+        self.written.iter_mut().for_each(|w| *w = None);
+        // The plane's axes as columns: the rotation from the plane's frame to the part's.
+        let m = plane.rotation().transpose();
+        let degrees = |v: f64| crate::format::number(v.to_degrees(), 4, self.dialect.explicit_plus);
+        let unit = |v: f64| crate::format::number(v, 7, self.dialect.explicit_plus);
+        let zxz = euler_zxz(&m).map(degrees);
+        let xyz = euler_xyz(&m).map(degrees);
+        let column = |c: usize| [m[(0, c)], m[(1, c)], m[(2, c)]].map(unit);
+        let rotaries = AxisSet::of(self.machine.axes.len(), |i| self.machine.axes[i].kind == AxisKind::Rotary);
+        let mut scratch = vec![None; self.written.len()];
+        std::mem::swap(&mut scratch, &mut self.written);
+        let words = self.axis_words(&plane.rotaries, rotaries, true);
+        std::mem::swap(&mut scratch, &mut self.written);
+        let direction = if words.first().is_some_and(|w| w.value < 0.0) { -1 } else { 1 };
+        let n = self.n();
+        self.push(Block::PlaneOn(Box::new(PlaneOn {
+            n,
+            plane: plane.kind,
+            euler_zxz: zxz,
+            euler_xyz: xyz,
+            x: column(0),
+            z: column(2),
+            rotaries: words,
+            direction,
+        })));
+    }
+
     fn linear(&mut self, linear: &postpro_motion::Linear) {
         self.notes_upto(linear.to.step);
         self.length_on();
         let inverse = matches!(linear.feed, FeedWord::InverseTime(_));
         let (feed, note) = self.feed(linear.feed, linear.note.as_deref(), inverse);
-        let words = self.position_words(&linear.to, AxisSet::ALL, inverse);
+        let words = self.position_words(&linear.to, AxisSet::ALL, inverse, true);
         if words.is_empty() && feed.is_none() {
             return;
         }
@@ -1026,8 +1153,11 @@ impl<'a> Formatter<'a> {
         // The start and the end in the program's frame (the tip in TCP mode), program units.
         let linear = self.machine.chain.linear.clone();
         let tcp = self.tcp_active;
+        let shift = |f: &Self, c: usize| if tcp { 0.0 } else { linear.get(c).map_or(0.0, |&i| f.shift(i)) };
         let frame_point = |f: &Self, p: &Position| -> [f64; 3] {
-            let v = |c: usize| if tcp { p.pose.tip[c] } else { linear.get(c).map_or(0.0, |&i| p.axes[i]) };
+            let v = |c: usize| {
+                if tcp { p.pose.tip[c] } else { linear.get(c).map_or(0.0, |&i| p.axes[i]) - shift(f, c) }
+            };
             [v(0) / f.unit, v(1) / f.unit, v(2) / f.unit]
         };
         let start = self.previous.map_or([0.0; 3], |p| frame_point(self, &p));
@@ -1039,7 +1169,7 @@ impl<'a> Formatter<'a> {
                 f.decimals(linear.get(c).copied().unwrap_or(c))
             }
         };
-        let center = arc.center.map(|v| v / self.unit);
+        let center = [0, 1, 2].map(|c| (arc.center[c] - shift(self, c)) / self.unit);
         let center_words =
             [a, b].iter().map(|&c| self.word(offsets[c], center[c] - start[c], decimals(self, c))).collect();
         let center_absolute = [a, b].iter().map(|&c| self.word(letters[c], center[c], decimals(self, c))).collect();
@@ -1051,7 +1181,7 @@ impl<'a> Formatter<'a> {
         // helix about that axis.
         let count = self.machine.axes.len();
         let linear_axes = AxisSet::of(count, |i| self.machine.axes[i].kind == AxisKind::Linear);
-        let words = self.position_words(&arc.to, linear_axes, true);
+        let words = self.position_words(&arc.to, linear_axes, true, false);
         let mut sweep = String::new();
         push_number(&mut sweep, arc.sweep.to_degrees(), 3, false);
         let n = self.n();
@@ -1075,9 +1205,10 @@ impl<'a> Formatter<'a> {
         self.length_on();
         let axis = cycle.axis;
         let decimals = self.decimals(axis);
+        // Absolute values along the hole axis, from a tilted plane's zero where one is in force.
         let text = |f: &Self, v: f64| {
             let mut t = String::new();
-            push_number(&mut t, v / f.unit, decimals, f.dialect.explicit_plus);
+            push_number(&mut t, (v - f.shift(axis)) / f.unit, decimals, f.dialect.explicit_plus);
             t
         };
         // Relative values and pecks with their decimal point always (an integer Q on a Fanuc is
@@ -1105,7 +1236,8 @@ impl<'a> Formatter<'a> {
                 previous.is_some_and(|(b, r)| (b - hole.bottom).abs() > 1e-9 || (r - hole.r_plane).abs() > 1e-9);
             previous = Some((hole.bottom, hole.r_plane));
             let letter = self.machine.axes[axis].letter.clone();
-            let bottom = Word { letter, value: hole.bottom / self.unit, text: text(self, hole.bottom) };
+            let bottom =
+                Word { letter, value: (hole.bottom - self.shift(axis)) / self.unit, text: text(self, hole.bottom) };
             let pitch = match (cycle.kind, cycle.feed, cycle.rpm) {
                 (CycleKind::Tap, FeedWord::PerMinute(f), Some(rpm)) if rpm > 0.0 => Some(plain(self, f / rpm)),
                 (CycleKind::Tap, FeedWord::PerRevolution(p), _) => Some(plain(self, p)),
@@ -1200,6 +1332,69 @@ impl<'a> Formatter<'a> {
         match self.failed {
             Some(e) => Err(e),
             None => Ok(()),
+        }
+    }
+}
+
+/// Euler angles (α, β, γ) with `m` = Rz(α)·Rx(β)·Rz(γ) (rad); β in [0, π]. At β = 0 or π the
+/// whole turn about z is α (γ = 0).
+pub(crate) fn euler_zxz(m: &nalgebra::Matrix3<f64>) -> [f64; 3] {
+    let beta = m[(2, 2)].clamp(-1.0, 1.0).acos();
+    if beta.sin().abs() < 1e-9 {
+        // Rz(α)·Rx(0 or π): the first column is (cos α, sin α, 0).
+        return [m[(1, 0)].atan2(m[(0, 0)]), beta, 0.0];
+    }
+    [m[(0, 2)].atan2(-m[(1, 2)]), beta, m[(2, 0)].atan2(m[(2, 1)])]
+}
+
+/// Angles (a, b, c) with `m` = Rx(a)·Ry(b)·Rz(c) (rad): about x, then the new y, then the new z.
+/// At b = ±90° the turn about x and z is one: c = 0.
+pub(crate) fn euler_xyz(m: &nalgebra::Matrix3<f64>) -> [f64; 3] {
+    let b = m[(0, 2)].clamp(-1.0, 1.0).asin();
+    if b.cos().abs() < 1e-9 {
+        // Rx(a)·Ry(±90°): the second row of the last column is 0, the first column (0, ±sin a…).
+        return [m[(2, 1)].atan2(m[(1, 1)]), b, 0.0];
+    }
+    [(-m[(1, 2)]).atan2(m[(2, 2)]), b, (-m[(0, 1)]).atan2(m[(0, 0)])]
+}
+
+#[cfg(test)]
+mod euler_tests {
+    use nalgebra::{Matrix3, Rotation3, Vector3};
+
+    use super::{euler_xyz, euler_zxz};
+
+    fn rz(a: f64) -> Matrix3<f64> {
+        *Rotation3::from_axis_angle(&Vector3::z_axis(), a).matrix()
+    }
+    fn rx(a: f64) -> Matrix3<f64> {
+        *Rotation3::from_axis_angle(&Vector3::x_axis(), a).matrix()
+    }
+    fn ry(a: f64) -> Matrix3<f64> {
+        *Rotation3::from_axis_angle(&Vector3::y_axis(), a).matrix()
+    }
+
+    #[test]
+    fn the_angles_give_the_rotation_back() {
+        let angles = [-2.5, -1.2, -0.3, 0.0, 0.4, 1.1, 2.9];
+        for &a in &angles {
+            for &b in &angles {
+                for &c in &angles {
+                    let m = rz(a) * rx(b) * rz(c);
+                    let [p, q, r] = euler_zxz(&m);
+                    assert!((rz(p) * rx(q) * rz(r) - m).norm() < 1e-9, "zxz {a} {b} {c}");
+                    let m = rx(a) * ry(b) * rz(c);
+                    let [p, q, r] = euler_xyz(&m);
+                    assert!((rx(p) * ry(q) * rz(r) - m).norm() < 1e-9, "xyz {a} {b} {c}");
+                }
+            }
+        }
+        // The degenerate ones.
+        for m in [rz(0.7), rz(0.7) * rx(std::f64::consts::PI), rx(0.3) * ry(std::f64::consts::FRAC_PI_2)] {
+            let [p, q, r] = euler_zxz(&m);
+            let [a, b, c] = euler_xyz(&m);
+            assert!((rz(p) * rx(q) * rz(r) - m).norm() < 1e-9);
+            assert!((rx(a) * ry(b) * rz(c) - m).norm() < 1e-9);
         }
     }
 }

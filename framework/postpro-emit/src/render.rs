@@ -15,6 +15,7 @@ use crate::program::{Block, BlockSink, Options, Program, Word, build, build_bloc
 pub const TEMPLATES: &[(&str, &str)] = &[
     ("siemens-840d", include_str!("../../../templates/siemens-840d.j2")),
     ("fanuc", include_str!("../../../templates/fanuc.j2")),
+    ("haas", include_str!("../../../templates/haas.j2")),
     ("heidenhain", include_str!("../../../templates/heidenhain.j2")),
     ("linuxcnc", include_str!("../../../templates/linuxcnc.j2")),
 ];

@@ -39,6 +39,7 @@ impl Options {
             program_name: self.program_name.clone(),
             source_name: self.source_name.clone(),
             block_numbers: self.block_numbers,
+            tcp_orientation: Default::default(),
             prediction: self.prediction.clone(),
             annotations: self.annotations.clone(),
         }

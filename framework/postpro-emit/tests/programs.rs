@@ -45,6 +45,7 @@ fn program(relative: &str, machine_name: &str, mode: Mode, dialect_name: Option<
         program_name: "TEST".into(),
         source_name: relative.into(),
         block_numbers: false,
+        tcp_orientation: Default::default(),
         prediction: None,
         annotations: Vec::new(),
     };
@@ -266,6 +267,7 @@ fn unsupported_modes_are_errors() {
         program_name: "T".into(),
         source_name: "t".into(),
         block_numbers: false,
+        tcp_orientation: Default::default(),
         prediction: None,
         annotations: Vec::new(),
     };
@@ -298,6 +300,7 @@ fn streaming_equals_the_whole_rendering() {
                         program_name: "TEST".into(),
                         source_name: "t.cl".into(),
                         block_numbers,
+                        tcp_orientation: Default::default(),
                         prediction: None,
                         annotations: Vec::new(),
                     };
@@ -308,12 +311,9 @@ fn streaming_equals_the_whole_rendering() {
                     let mut streamed = Vec::new();
                     postpro_emit::write_program(&program_motion, &m, d, &options, d.name, template, &mut streamed)
                         .expect("writes");
-                    assert!(
-                        whole == String::from_utf8(streamed).expect("UTF-8"),
-                        "{} {:?} {block_numbers}",
-                        d.name,
-                        mode
-                    );
+                    let streamed = String::from_utf8(streamed).expect("UTF-8");
+                    let first = whole.lines().zip(streamed.lines()).find(|(a, b)| a != b);
+                    assert!(whole == streamed, "{} {:?} {block_numbers}: {first:?}", d.name, mode);
                 }
             }
         }
@@ -399,6 +399,7 @@ fn user_templates_are_strict_and_lines_are_bounded() {
         program_name: "T".into(),
         source_name: "t".into(),
         block_numbers: false,
+        tcp_orientation: Default::default(),
         prediction: None,
         annotations: Vec::new(),
     };
@@ -433,6 +434,7 @@ fn a_feed_out_of_range_is_limited_and_noted() {
         program_name: "T".into(),
         source_name: "fast.cl".into(),
         block_numbers: false,
+        tcp_orientation: Default::default(),
         prediction: None,
         annotations: Vec::new(),
     };

@@ -395,7 +395,7 @@ pub fn choose(
         // the nearest one, is a discontinuity.
         let previous_target = regular.last().map(|&p| p as usize).filter(|&p| p + 1 == i && !rapid_since);
         let pole_passage = previous_target.is_some_and(|p| {
-            passes_pole(kin, (&targets[p].pose, pole[p]), (&t.pose, pole[i]), policy.singular_cone, &mut probe)
+            passes_pole(kin, (&targets[p].pose, pole[p]), (&t.pose, pole[i]), policy.pole_passage, &mut probe)
         });
         let mut layer = [Node::EMPTY; 2];
         let mut reasons: [Option<(usize, f64)>; 4] = [None; 4];

@@ -15,6 +15,7 @@ fn axis(letter: &str, kind: AxisKind, dir: [f64; 3], center: [f64; 3], travel: T
         amax: 2500.0,
         jmax: 5000.0,
         decimals: 4,
+        clamp: None,
     }
 }
 
@@ -63,6 +64,7 @@ pub(crate) fn machine(rotaries: &[(&str, [f64; 3], [f64; 3], bool)], solver: Sol
             branch: BranchPreference::Closest,
             choice: PathChoice::WholePath,
             singular_cone: 0.5_f64.to_radians(),
+            pole_passage: 0.5_f64.to_radians(),
             max_rotary_step: 30_f64.to_radians(),
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: 0.01,

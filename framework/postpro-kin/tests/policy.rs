@@ -49,8 +49,9 @@ fn nx_blocks(text: &str) -> Vec<[f64; 5]> {
 }
 
 /// `APT_Variable_Axis.txt` (NX VARIABLE_CONTOUR, inch) on the Haas UMC-750 with its default
-/// policy solves, and our B and C are the NX post's at every orientation outside the singular
-/// cone, within 0.001° (the NX program prints three decimals). With TCP (G234) its X Y Z are the
+/// policy solves, and our B and C are the NX post's at every orientation, within 0.001° (the NX
+/// program prints three decimals): its singular cone (0.1°) holds none of them (NX computes C
+/// down to B 0.303°), and its pole passage (2°) lets B change sign where NX does. With TCP (G234) its X Y Z are the
 /// CL points, which pairs its blocks with ours.
 #[test]
 fn variable_axis_on_the_haas_umc750_gives_the_nx_posts_angles() {
@@ -94,7 +95,7 @@ fn variable_axis_on_the_haas_umc750_gives_the_nx_posts_angles() {
     eprintln!(
         "Variable_Axis: {compared} orientations compared, {in_cone} inside the cone, largest difference {largest:.6}°"
     );
-    assert_eq!((nx.len(), compared, in_cone), (348, 347, 1));
+    assert_eq!((nx.len(), compared, in_cone), (348, 348, 0));
     // The NX post lets C swing by 87° in one block near the pole: a warning here, not an error.
     assert!(solved.decisions.iter().any(|d| matches!(d.decision, Decision::LargeRotaryStep { .. })));
 }

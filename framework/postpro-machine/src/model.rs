@@ -14,7 +14,7 @@ pub struct Machine {
     pub aliases: Vec<String>,
     /// One line for `postpro machines`.
     pub description: String,
-    /// The controller dialect of the NC output (`siemens-840d`, `fanuc`, `heidenhain`, `linuxcnc`).
+    /// The controller dialect of the NC output (`siemens-840d`, `fanuc`, `haas`, `heidenhain`, `linuxcnc`).
     pub dialect: String,
     /// Every axis, in the order the NC program writes them.
     pub axes: Vec<Axis>,
@@ -171,6 +171,18 @@ pub struct Axis {
     pub jmax: f64,
     /// Decimals written in the NC program.
     pub decimals: u8,
+    /// A rotary axis's brake, when it has one the program must work: locked while the axis
+    /// stands for a 3+2 set-up, unlocked before it turns.
+    pub clamp: Option<Clamp>,
+}
+
+/// The M codes of a rotary axis's brake.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Clamp {
+    /// Locks the axis (`M10`).
+    pub lock: String,
+    /// Unlocks it (`M11`).
+    pub unlock: String,
 }
 
 /// The kinematic chain. Rotary axes are listed **from the machine base outwards**: for the part
@@ -293,6 +305,10 @@ pub struct PolicyDefaults {
     /// Half-angle of the cone around the primary rotary axis inside which the pose is treated as
     /// singular (rad).
     pub singular_cone: f64,
+    /// Within this angle of the pole (rad, at least the singular cone), a branch change between
+    /// two feed points whose tool axes pass it is a pole passage, not a discontinuity: the axes
+    /// pass the pole continuously (a tilt axis through zero).
+    pub pole_passage: f64,
     /// A rotary step between two consecutive feed points larger than this (rad) is reported as
     /// a warning; it is still motion (only a branch change away from the pole or a travel limit
     /// is a discontinuity).

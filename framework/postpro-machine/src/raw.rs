@@ -105,6 +105,19 @@ pub struct Axis {
     /// Decimals in the NC program (default 3).
     #[serde(default = "default_decimals")]
     pub decimals: u8,
+    /// A rotary axis's brake: the M codes that lock and unlock it (`{ lock: M10, unlock: M11 }`).
+    #[serde(default)]
+    pub clamp: Option<Clamp>,
+}
+
+/// `clamp:` of a rotary axis.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Clamp {
+    /// The code that locks the axis (`M10`).
+    pub lock: String,
+    /// The code that unlocks it (`M11`).
+    pub unlock: String,
 }
 
 fn default_decimals() -> u8 {
@@ -247,6 +260,9 @@ pub struct Policy {
     pub choice: Choice,
     /// Singular cone half-angle (default 0.5 deg).
     pub singular_cone: Angle,
+    /// Within this angle of the pole a branch change between two feed points is a pole passage
+    /// (default: the singular cone).
+    pub pole_passage: Option<Angle>,
     /// Largest continuous rotary step (default 30 deg).
     pub max_rotary_step: Angle,
     /// `error` (default) or `{retract: LENGTH}`.
@@ -281,6 +297,7 @@ impl Default for Policy {
             branch: Branch::Closest,
             choice: Choice::WholePath,
             singular_cone: Angle(0.5f64.to_radians()),
+            pole_passage: None,
             max_rotary_step: Angle(30f64.to_radians()),
             on_discontinuity: OnDiscontinuity::Error,
             linearization_tolerance: Length(0.01),

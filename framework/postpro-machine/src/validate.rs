@@ -20,7 +20,7 @@ use crate::quantity::{AxisQuantity, Dimension};
 use crate::raw;
 
 /// The controller dialects the NC output knows.
-pub const DIALECTS: &[&str] = &["siemens-840d", "fanuc", "heidenhain", "linuxcnc"];
+pub const DIALECTS: &[&str] = &["siemens-840d", "fanuc", "haas", "heidenhain", "linuxcnc"];
 
 /// The machines with a hand-derived closed-form solver, by name.
 pub const CLOSED_FORMS: &[(&str, ClosedForm)] =
@@ -242,6 +242,31 @@ impl Validator<'_> {
                     format!("expected 0 to {MAX_DECIMALS} decimals"),
                 ));
             }
+            let clamp = match &a.clamp {
+                None => None,
+                Some(_) if linear => {
+                    return Err(self.err(
+                        path!["axes", i, "clamp"],
+                        format!("linear axis `{}` has a `clamp`", a.letter),
+                        "expected `clamp` on rotary axes only",
+                    ));
+                }
+                Some(c) => {
+                    for (field, code) in [("lock", &c.lock), ("unlock", &c.unlock)] {
+                        if !is_m_code(code) {
+                            return Err(self.err(
+                                path!["axes", i, "clamp", field],
+                                format!("`{code}` is not an M code"),
+                                "expected an M code such as `M10`",
+                            ));
+                        }
+                    }
+                    Some(crate::model::Clamp {
+                        lock: c.lock.to_ascii_uppercase(),
+                        unlock: c.unlock.to_ascii_uppercase(),
+                    })
+                }
+            };
             axes.push(Axis {
                 letter: a.letter.clone(),
                 kind: if linear { AxisKind::Linear } else { AxisKind::Rotary },
@@ -253,6 +278,7 @@ impl Validator<'_> {
                 amax,
                 jmax,
                 decimals: a.decimals,
+                clamp,
             });
         }
         Ok(axes)
@@ -594,6 +620,17 @@ impl Validator<'_> {
                 "expected a half-angle above 0 and below 90 deg, such as `0.5 deg`",
             ));
         }
+        let pole_passage = p.pole_passage.map_or(p.singular_cone.0, |a| a.0);
+        if !(pole_passage >= p.singular_cone.0 && pole_passage < std::f64::consts::FRAC_PI_2) {
+            return Err(self.err(
+                path!["policy", "pole_passage"],
+                format!("pole passage of {}", show(pole_passage, false)),
+                format!(
+                    "expected an angle from the singular cone ({}) to below 90 deg, such as `2 deg`",
+                    show(p.singular_cone.0, false)
+                ),
+            ));
+        }
         if p.max_rotary_step.0 <= 0.0 {
             return Err(self.err(
                 path!["policy", "max_rotary_step"],
@@ -637,6 +674,7 @@ impl Validator<'_> {
                 raw::Choice::Greedy => PathChoice::Greedy,
             },
             singular_cone: p.singular_cone.0,
+            pole_passage,
             max_rotary_step: p.max_rotary_step.0,
             on_discontinuity,
             linearization_tolerance: p.linearization_tolerance.0,
@@ -810,6 +848,15 @@ fn default_safe_z(axis: &Axis, chain: &Chain) -> f64 {
 fn vector_text(v: Vector3<f64>) -> String {
     // `+ 0.0` turns -0 into 0.
     format!("[{}, {}, {}]", v.x + 0.0, v.y + 0.0, v.z + 0.0)
+}
+
+/// `M` and digits (`M10`, `m11`, `M1.2`).
+fn is_m_code(code: &str) -> bool {
+    let mut chars = code.chars();
+    matches!(chars.next(), Some('M' | 'm'))
+        && !code[1..].is_empty()
+        && code[1..].chars().all(|c| c.is_ascii_digit() || c == '.')
+        && code[1..].starts_with(|c: char| c.is_ascii_digit())
 }
 
 #[cfg(test)]
@@ -1144,7 +1191,7 @@ chain:
         assert_eq!((m.as_str(), at.as_str()), ("aliases[1]: alias `TEST-TT` repeats `test-tt`", "TEST-TT"));
         let (m, e, at) = fails(&with("dialect: fanuc", "dialect: fanuk"));
         assert_eq!(m, "dialect: unknown dialect `fanuk`");
-        assert_eq!(e, "expected one of `siemens-840d`, `fanuc`, `heidenhain` and `linuxcnc`");
+        assert_eq!(e, "expected one of `siemens-840d`, `fanuc`, `haas`, `heidenhain` and `linuxcnc`");
         assert_eq!(at, "fanuk");
     }
 

@@ -323,6 +323,55 @@ pub enum BlockKind {
     },
     /// Tool-centre-point control off.
     TcpOff,
+    /// A tilted working plane (3+2) comes into force: the rotary axes stand at its set-up and
+    /// the coordinates that follow are the plane's, until [`BlockKind::PlaneOff`].
+    PlaneOn(Box<WorkPlane>),
+    /// The working plane is reset: coordinates in the work offset's frame again.
+    PlaneOff,
+    /// A rotary axis's brake is locked (`lock`) or unlocked: the machine definition's M codes.
+    Clamp {
+        /// The axis (an index into `Machine::axes`).
+        axis: usize,
+        /// Lock, else unlock.
+        lock: bool,
+    },
+}
+
+/// How the controller takes the coordinates of a 3+2 set-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlaneKind {
+    /// In a tilted frame whose z axis is the tool axis (Fanuc `G68.2`, Siemens `CYCLE800`,
+    /// Heidenhain `PLANE`): the plane's coordinates.
+    Tilted,
+    /// In the part frame, the controller turning them with the rotaries (Haas `G254`, the
+    /// dynamic work offset): the tool tip's part coordinates.
+    Dynamic,
+}
+
+/// A working plane of a 3+2 set-up, on a machine whose rotary axes carry the part. Its axes are
+/// the machine's linear axes as the part sees them with the rotaries at the set-up: its z axis is
+/// the tool axis, and its coordinates are the axis values less those of the part zero. The work
+/// offset is the part zero (the controller knows the rotary axes' place).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorkPlane {
+    /// How the controller takes the coordinates.
+    pub kind: PlaneKind,
+    /// The plane's x, y and z axes in the part frame (rows of the rotation from the part frame to
+    /// the plane's; z is the tool axis).
+    pub axes: [nalgebra::Vector3<f64>; 3],
+    /// The written axis values (work-offset frame) of the part zero at this set-up: subtracted
+    /// from the linear axes' values, they give the plane's coordinates (`Tilted`).
+    pub shift: Joints,
+    /// The rotary axes' values (work-offset frame) of the set-up.
+    pub rotaries: Joints,
+}
+
+impl WorkPlane {
+    /// The rotation from the part frame to the plane's (rows: the plane's axes).
+    pub fn rotation(&self) -> nalgebra::Matrix3<f64> {
+        nalgebra::Matrix3::from_rows(&[self.axes[0].transpose(), self.axes[1].transpose(), self.axes[2].transpose()])
+    }
 }
 
 /// One block, with the CL statement it comes from.

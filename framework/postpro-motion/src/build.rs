@@ -44,6 +44,12 @@ pub struct Options {
     /// changes, re-orientations and the end, the rotary axes turned alone there, the approach
     /// across then down, the work offset. Off only for studies of the motion alone.
     pub clearance: bool,
+    /// Write each 3+2 set-up (the rotaries turned at the clearance and standing until the next
+    /// re-orientation) in a working plane of this kind, where the machine's rotary axes carry
+    /// the part; `None`: in the work offset's frame. The job's frame must then be the part zero
+    /// ([`crate::frame::part_zero_frame`]) and no feed move may turn a rotary axis
+    /// ([`simultaneous`]).
+    pub planes: Option<crate::block::PlaneKind>,
 }
 
 /// How CL arcs are written.
@@ -73,8 +79,18 @@ impl Options {
             arcs: Arcs::Linear,
             cycles: false,
             clearance: false,
+            planes: None,
         }
     }
+}
+
+/// True when a feed move of `steps` turns a rotary axis (simultaneous 4- or 5-axis motion): the
+/// program cannot be written in working planes.
+pub fn simultaneous(kin: &dyn Kinematics, steps: &[Step]) -> bool {
+    steps.windows(2).any(|w| {
+        let feed = !w[1].rapid && !matches!(w[1].kind, StepKind::Retract | StepKind::Reorient);
+        feed && !crate::arc::same_rotaries(kin, &w[0].joints, &w[1].joints)
+    })
 }
 
 /// What the job adds to the machine: where the program's zero is, which offset holds it, the
@@ -178,7 +194,7 @@ pub fn build(
     job: &Job,
     sink: &mut dyn MotionSink,
 ) -> Result<Summary, MotionError> {
-    let mut b = Builder::new(kin, options, job, sink);
+    let mut b = Builder::new(kin, options, job, &solved.steps, sink);
     b.unknown = path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
     let mut k = 0; // next step
     let decisions = &solved.decisions;
@@ -308,10 +324,23 @@ pub(crate) struct Builder<'a> {
     /// TCP mode: the linearization points since the last position written.
     via: Vec<Position>,
     pub(crate) warnings: Vec<Warning>,
+    /// Every solved step (to see how long a 3+2 set-up stands).
+    pub(crate) steps: &'a [Step],
+    /// The working plane in force.
+    pub(crate) plane: Option<crate::block::PlaneKind>,
+    /// Per axis, its brake: locked, unlocked, or not known (at the start: unlocked before the axis
+    /// first turns).
+    pub(crate) locked: Vec<Option<bool>>,
 }
 
 impl<'a> Builder<'a> {
-    fn new(kin: &'a dyn Kinematics, options: &'a Options, job: &'a Job, sink: &'a mut dyn MotionSink) -> Self {
+    fn new(
+        kin: &'a dyn Kinematics,
+        options: &'a Options,
+        job: &'a Job,
+        steps: &'a [Step],
+        sink: &'a mut dyn MotionSink,
+    ) -> Self {
         Builder {
             base: kin,
             kin: ToolLength::new(kin, kin.machine().chain.tool_length),
@@ -341,6 +370,9 @@ impl<'a> Builder<'a> {
             span: Span::default(),
             via: Vec::new(),
             warnings: Vec::new(),
+            steps,
+            plane: None,
+            locked: vec![None; kin.machine().axes.len()],
         }
     }
 
@@ -399,10 +431,7 @@ impl<'a> Builder<'a> {
     fn tool_change(&mut self, span: Span, tool: usize) -> Result<(), MotionError> {
         self.flush_run(false);
         self.span = span;
-        if self.tcp_on {
-            self.tcp_on = false;
-            self.push(span, BlockKind::TcpOff);
-        }
+        self.frame_off(span);
         if self.options.clearance {
             self.retract_to_clearance(span);
         }
@@ -498,6 +527,7 @@ impl<'a> Builder<'a> {
         }
         self.first_feed.get_or_insert(step.span);
         self.ensure_tcp(step.span);
+        self.release(step.span, &step.joints);
         if self.options.mode == Mode::Bspline && feed.per == FeedPer::Minute {
             // The spline goes through the CL points (it is checked against the tolerance
             // itself); the linearization points are queued for a run written as G1.
@@ -582,6 +612,7 @@ impl<'a> Builder<'a> {
             return;
         }
         self.ensure_tcp(step.span);
+        self.release(step.span, &step.joints);
         let to = self.position(step, k);
         self.last_tip = Some(step.pose.tip);
         self.current = Some(step.joints);
@@ -606,6 +637,11 @@ impl<'a> Builder<'a> {
         let (Some(current), Some(last)) = (self.current, steps.last()) else { return Ok(None) };
         let own = |s: &Step| s.span == span && matches!(s.kind, StepKind::Cl | StepKind::Linearized);
         let tcp = self.options.mode == Mode::Tcp;
+        if self.plane == Some(crate::block::PlaneKind::Dynamic) {
+            // In the part frame the controller turns: a circle about the tilted tool axis is no
+            // circle of its planes.
+            return Ok(None);
+        }
         let steady = steps.iter().all(|s| crate::arc::same_rotaries(self.base, &current, &s.joints));
         if !steps.iter().all(own) || !steady || (tcp && !axis_steady(arc, steps)) {
             return Ok(None);
@@ -879,10 +915,7 @@ impl<'a> Builder<'a> {
     fn finish(&mut self) {
         self.flush_run(false);
         let span = self.span;
-        if self.tcp_on {
-            self.tcp_on = false;
-            self.push(span, BlockKind::TcpOff);
-        }
+        self.frame_off(span);
         if self.spindle_on {
             self.push(span, BlockKind::SpindleOff);
         }

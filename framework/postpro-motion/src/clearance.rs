@@ -6,11 +6,14 @@
 //! coordinates (written with the dialect's machine-frame word: `G53`, `SUPA`, `M91`), or a
 //! retract by a distance along the tool axis. Every rapid that turns a rotary axis, and the first
 //! rapid after a tool change, goes this way: **retract, rotate, approach**, never at once.
+//! Tool-centre-point control and working planes come on only after the move across, so that
+//! every move at the clearance is one of the machine's own axes; rotary brakes are released
+//! before an axis turns and locked while a 3+2 set-up stands.
 
 use postpro_kin::{Joints, Kinematics, Pose, Step, StepKind};
 use postpro_machine::model::Clearance;
 
-use crate::block::{AxisSet, BlockKind, MachineRetract, Mode, Position, Rapid};
+use crate::block::{AxisSet, BlockKind, MachineRetract, Mode, Position, Rapid, WorkPlane};
 use crate::build::{Builder, is_rotary};
 
 impl Builder<'_> {
@@ -47,17 +50,17 @@ impl Builder<'_> {
         self.at_clearance = true;
     }
 
-    /// Goes to solved step `k` by the clearance: retract, the rotary axes alone, across, then
-    /// down (with a retract distance instead of a safe height: above the step along its tool
-    /// axis, then to it). With `feed_after`, the last move (down to the step) is left to the feed
-    /// move that follows.
+    /// Goes to solved step `k` by the clearance: retract, the rotary axes alone (their brakes
+    /// released before, locked after where the set-up stands until the next re-orientation),
+    /// across, then down (with a retract distance instead of a safe height: above the step along
+    /// its tool axis, then to it). Tool-centre-point control or the working plane comes on after
+    /// the move across, which is written in the work offset's frame: the approach along the
+    /// spindle is the first position the controller transforms. With `feed_after`, the last move
+    /// (down to the step) is left to the feed move that follows.
     pub(crate) fn reposition(&mut self, k: usize, step: &Step, feed_after: bool) {
         let span = step.span;
         let tcp = self.options.mode == Mode::Tcp;
-        if self.tcp_on {
-            self.tcp_on = false;
-            self.push(span, BlockKind::TcpOff);
-        }
+        self.frame_off(span);
         self.retract_to_clearance(span);
         self.work_offset_once(span);
         let machine = self.machine;
@@ -77,35 +80,31 @@ impl Builder<'_> {
             }
             j
         });
+        let indexed = self.indexed_from(k);
         if (0..count).any(|i| rotaries.contains(i)) {
             for i in (0..count).filter(|&i| rotaries.contains(i)) {
                 at[i] = target[i];
             }
+            self.release(span, &at);
             let to = self.added(at, k, StepKind::Reorient);
             self.push(span, BlockKind::Rapid(Rapid { to, axes: rotaries }));
+            self.current = Some(at);
+            if indexed {
+                self.lock(span);
+            }
         }
-        if tcp {
-            self.tcp_on = true;
-            let length_register = self.tool.map_or(0, |t| self.job.tooling.tools[t].length_register);
-            self.push(span, BlockKind::TcpOn { length_register });
-        }
+        let plane = if indexed && !tcp { self.plane_at(&target) } else { None };
         match (spindle, machine.clearance) {
             (Some(axis), _) => {
                 // Across the spindle at the safe height, then along it.
                 let across = AxisSet::of(count, |i| !rotaries.contains(i) && i != axis);
-                if tcp {
-                    // In TCP mode the approach is the tool tip's: across at its height.
-                    let height = self.kin.forward(&at).tip;
-                    let tip = nalgebra::Point3::new(step.pose.tip.x, step.pose.tip.y, height.z);
-                    at = self.kin.place(&Pose { tip, axis: step.pose.axis }, &target);
-                } else {
-                    for i in (0..count).filter(|&i| across.contains(i)) {
-                        at[i] = target[i];
-                    }
+                for i in (0..count).filter(|&i| across.contains(i)) {
+                    at[i] = target[i];
                 }
                 let to = self.added(at, k, StepKind::Retract);
                 self.push(span, BlockKind::Rapid(Rapid { to, axes: across }));
                 self.current = Some(at);
+                self.frame_on(span, tcp, plane);
                 if !feed_after {
                     let to = Position { step: k, ..self.position(step, k) };
                     self.push(span, BlockKind::Rapid(Rapid { to, axes: AxisSet::of(count, |i| i == axis) }));
@@ -122,6 +121,7 @@ impl Builder<'_> {
                 let to = self.added(joints, k, StepKind::Retract);
                 self.push(span, BlockKind::Rapid(Rapid { to, axes: AxisSet::ALL }));
                 self.current = Some(joints);
+                self.frame_on(span, tcp, plane);
                 if !feed_after {
                     let to = self.position(step, k);
                     self.push(span, BlockKind::Rapid(Rapid { to, axes: AxisSet::ALL }));
@@ -132,6 +132,109 @@ impl Builder<'_> {
         self.at_clearance = false;
         self.last_tip =
             Some(if feed_after { self.kin.forward(&self.current.unwrap_or(target)).tip } else { step.pose.tip });
+    }
+
+    /// Tool-centre-point control (`tcp`) or the working plane `plane` on, where asked.
+    fn frame_on(&mut self, span: postpro_cl::Span, tcp: bool, plane: Option<WorkPlane>) {
+        if tcp {
+            self.tcp_on = true;
+            let length_register = self.tool.map_or(0, |t| self.job.tooling.tools[t].length_register);
+            self.push(span, BlockKind::TcpOn { length_register });
+        } else if let Some(plane) = plane {
+            self.plane = Some(plane.kind);
+            self.push(span, BlockKind::PlaneOn(Box::new(plane)));
+        }
+    }
+
+    /// Tool-centre-point control or the working plane off, where on: before a retract in
+    /// machine coordinates, a re-orientation, a tool change and the end.
+    pub(crate) fn frame_off(&mut self, span: postpro_cl::Span) {
+        if self.tcp_on {
+            self.tcp_on = false;
+            self.push(span, BlockKind::TcpOff);
+        }
+        if self.plane.take().is_some() {
+            self.push(span, BlockKind::PlaneOff);
+        }
+    }
+
+    /// True when the rotary axes of step `k` stand until the next rapid that turns them (or the
+    /// end): a 3+2 set-up, not simultaneous motion.
+    pub(crate) fn indexed_from(&self, k: usize) -> bool {
+        let Some(first) = self.steps.get(k) else { return false };
+        let kin = self.base;
+        match self.steps[k + 1..].iter().find(|s| !crate::arc::same_rotaries(kin, &first.joints, &s.joints)) {
+            None => true,
+            Some(s) => s.rapid || matches!(s.kind, StepKind::Retract | StepKind::Reorient),
+        }
+    }
+
+    /// The working plane of the set-up with the rotary axes at `joints` (the kinematics'
+    /// values), when the options ask for planes and it is tilted (none with the rotaries at
+    /// their zero, where the plane is the work offset's frame).
+    fn plane_at(&self, joints: &Joints) -> Option<WorkPlane> {
+        let kind = self.options.planes?;
+        let machine = self.machine;
+        let linear = &machine.chain.linear;
+        if linear.len() != 3 || !machine.chain.tool.is_empty() {
+            return None;
+        }
+        // The linear axes' values for the tip at a point of the part frame, the rotaries held.
+        let axis = self.kin.forward(joints).axis;
+        let image = |p: nalgebra::Point3<f64>| self.job.frame.apply(&self.kin.place(&Pose { tip: p, axis }, joints));
+        let zero = image(nalgebra::Point3::origin());
+        let columns = [nalgebra::Vector3::x(), nalgebra::Vector3::y(), nalgebra::Vector3::z()].map(|e| {
+            let v = image(nalgebra::Point3::from(e));
+            nalgebra::Vector3::new(
+                v[linear[0]] - zero[linear[0]],
+                v[linear[1]] - zero[linear[1]],
+                v[linear[2]] - zero[linear[2]],
+            )
+        });
+        let map = nalgebra::Matrix3::from_columns(&columns);
+        // A rotation (the linear axes a right-handed orthonormal frame), and not the identity.
+        if (map.transpose() * map - nalgebra::Matrix3::identity()).norm() > 1e-9 || map.determinant() < 0.0 {
+            return None;
+        }
+        if (map - nalgebra::Matrix3::identity()).norm() <= 1e-12 {
+            return None;
+        }
+        let mut shift = Joints::zeros(machine.axes.len());
+        for &i in linear {
+            shift[i] = zero[i];
+        }
+        let mut rotaries = self.job.frame.apply(joints);
+        for &i in linear {
+            rotaries[i] = 0.0;
+        }
+        let row = |r: usize| map.row(r).transpose();
+        Some(WorkPlane { kind, axes: [row(0), row(1), row(2)], shift, rotaries })
+    }
+
+    /// Unlocks the brake of every clamped rotary axis that `to` turns (or whose state is not
+    /// known).
+    pub(crate) fn release(&mut self, span: postpro_cl::Span, to: &Joints) {
+        let machine = self.machine;
+        for i in 0..machine.axes.len() {
+            if machine.axes[i].clamp.is_none() || self.locked[i] == Some(false) {
+                continue;
+            }
+            let turns = self.current.is_none_or(|c| (c[i] - to[i]).abs() > 1e-9) || self.locked[i].is_none();
+            if turns {
+                self.locked[i] = Some(false);
+                self.push(span, BlockKind::Clamp { axis: i, lock: false });
+            }
+        }
+    }
+
+    /// Locks the brake of every clamped rotary axis not locked.
+    pub(crate) fn lock(&mut self, span: postpro_cl::Span) {
+        for i in 0..self.machine.axes.len() {
+            if self.machine.axes[i].clamp.is_some() && self.locked[i] != Some(true) {
+                self.locked[i] = Some(true);
+                self.push(span, BlockKind::Clamp { axis: i, lock: true });
+            }
+        }
     }
 
     /// At the end: the rotary axes back home, at the clearance.
@@ -148,10 +251,13 @@ impl Builder<'_> {
         for (i, h) in home {
             at[i] = h;
         }
+        self.release(span, &at);
         let step = self.next_step();
         let to = self.added(at, step, StepKind::Reorient);
         self.push(span, BlockKind::Rapid(Rapid { to, axes: rotaries }));
         self.current = Some(at);
+        // The machine is left with its brakes on.
+        self.lock(span);
     }
 
     /// Every axis at its home position (the kinematics' values).

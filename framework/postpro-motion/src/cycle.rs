@@ -112,7 +112,9 @@ impl Builder<'_> {
         // controller's cycle.
         let spindle = self.machine.spindle_linear_axis();
         let mut holes = Vec::with_capacity(pending.holes.len());
-        let mut native = self.options.cycles && spindle.is_some();
+        // In a dynamic work offset the coordinates are the part's: the hole axis is none of them.
+        let dynamic = self.plane == Some(crate::block::PlaneKind::Dynamic);
+        let mut native = self.options.cycles && spindle.is_some() && !dynamic;
         let mut motion_out: Vec<CycleMove> = Vec::new();
         let mut level = start;
         for (n, &(k, step, _)) in pending.holes.iter().enumerate() {

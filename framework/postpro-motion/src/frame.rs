@@ -76,11 +76,21 @@ impl WorkFrame {
 
 /// The work frame of `kin`'s machine in `mode`.
 pub fn work_frame(kin: &dyn Kinematics, mode: Mode) -> WorkFrame {
+    frame(kin, mode == Mode::Tcp)
+}
+
+/// The frame whose zero is the part zero, with the rotary axes at zero, whatever the machine:
+/// for controllers that carry the part zero through the rotations (TCP, working planes).
+pub fn part_zero_frame(kin: &dyn Kinematics) -> WorkFrame {
+    frame(kin, true)
+}
+
+fn frame(kin: &dyn Kinematics, part_zero: bool) -> WorkFrame {
     let machine = kin.machine();
     let nose = ToolLength::new(kin, 0.0);
     let rotaries = Joints::zeros(machine.axes.len());
-    let (tip, origin) = match (mode, rotation_reference(machine)) {
-        (Mode::Tcp, _) | (_, None) => (Point3::origin(), Origin::PartZero),
+    let (tip, origin) = match (part_zero, rotation_reference(machine)) {
+        (true, _) | (_, None) => (Point3::origin(), Origin::PartZero),
         (_, Some((point, description))) => {
             (machine.chain.part_origin.inverse_transform_point(&point), Origin::RotationReference { description })
         }

@@ -19,11 +19,11 @@ pub mod tooling;
 pub mod travel;
 
 pub use block::{
-    Arc, AxisSet, Block, BlockKind, Cycle, CycleMove, FeedWord, Hole, Linear, MachineRetract, Mode, Plane, Position,
-    Rapid, Spline, ToolCall,
+    Arc, AxisSet, Block, BlockKind, Cycle, CycleMove, FeedWord, Hole, Linear, MachineRetract, Mode, Plane, PlaneKind,
+    Position, Rapid, Spline, ToolCall, WorkPlane,
 };
-pub use build::{Arcs, Job, Options, build, collect, study};
-pub use frame::{WorkFrame, work_frame};
+pub use build::{Arcs, Job, Options, build, collect, simultaneous, study};
+pub use frame::{WorkFrame, part_zero_frame, work_frame};
 pub use tooling::{Tool, Tooling, tooling};
 
 use postpro_cl::Span;

@@ -86,6 +86,10 @@ pub struct Blocks {
     pub step: Vec<usize>,
     /// True when the block ends on a CL point (not on a point added by linearization).
     pub cl: Vec<bool>,
+    /// True when the block is one of the NC program's: false for the points within an arc and
+    /// the linearization points a TCP program leaves to the controller (the prediction follows
+    /// them all the same).
+    pub written: Vec<bool>,
     /// The B-splines of the program, in order, each over a run of consecutive blocks.
     pub splines: Vec<SplineRun>,
     /// Where an assumption was made (a feed per revolution without a spindle speed, no feed).
@@ -182,6 +186,7 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
         started: false,
         operation: None,
         arc: (0, f64::INFINITY),
+        via: false,
     };
     let mut arcs = 0;
     for block in &program.blocks {
@@ -199,9 +204,11 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
                 };
                 arcs += 1;
                 state.arc = (arcs, arc.radius);
+                state.via = true;
                 for via in &arc.via {
                     push_block(&mut out, machine, timing, via, feed, &mut state);
                 }
+                state.via = false;
                 push_block(&mut out, machine, timing, &arc.to, feed, &mut state);
                 state.arc = (0, f64::INFINITY);
             }
@@ -211,9 +218,11 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
                     FeedWord::PerRevolution(f) => Feed::PerRevolution(f),
                     FeedWord::InverseTime(f) => Feed::InverseTime(f, 1 + linear.via.len()),
                 };
+                state.via = true;
                 for via in &linear.via {
                     push_block(&mut out, machine, timing, via, feed, &mut state);
                 }
+                state.via = false;
                 push_block(&mut out, machine, timing, &linear.to, feed, &mut state);
             }
             MotionKind::Cycle(cycle) => {
@@ -281,6 +290,8 @@ struct State {
     operation: Option<String>,
     /// The arc the next blocks lie on, and its radius.
     arc: (u32, f64),
+    /// The next blocks are points within a block of the program (its `via`).
+    via: bool,
 }
 
 impl State {
@@ -381,6 +392,7 @@ fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position
     out.stop_before.push(state.stop || rapid || previous_rapid);
     out.dwell_before.push(state.dwell);
     out.cl.push(matches!(to.kind, StepKind::Cl | StepKind::Reengage));
+    out.written.push(!state.via);
     state.stop = false;
     state.dwell = 0.0;
     let direction = to.pose.tip - from_tip;

@@ -33,6 +33,8 @@ pub struct BlockResult {
     pub step: usize,
     /// Feed move, reorientation or rapid.
     pub kind: BlockKind,
+    /// A block of the NC program (false: a point within one, which the prediction follows).
+    pub written: bool,
     /// Tip length (mm).
     pub length: f64,
     /// Programmed feed (mm/min); 0 for rapids.
@@ -209,7 +211,7 @@ pub struct Mark {
     pub first: usize,
     /// Last block of the run.
     pub last: usize,
-    /// The feed blocks of the run.
+    /// The feed blocks of the run that the NC program writes.
     pub blocks: usize,
     /// The lowest feed over the run as a share of the programmed one, exact stops aside.
     pub ratio: f64,
@@ -282,7 +284,7 @@ impl Prediction {
                 match runs.last_mut() {
                     Some(run) if open => {
                         run.last = i;
-                        run.blocks += 1;
+                        run.blocks += usize::from(self.blocks[i].written);
                         run.ratio = run.ratio.min(ratio);
                         run.lost += own;
                     }
@@ -291,7 +293,7 @@ impl Prediction {
                             number: 0,
                             first: i,
                             last: i,
-                            blocks: 1,
+                            blocks: usize::from(b.written),
                             ratio,
                             cause: b.cause,
                             lost: own,
@@ -493,6 +495,7 @@ impl<'a> Collector<'a> {
                 BlockResult {
                     step: blocks.step[i],
                     kind: blocks.kind[i],
+                    written: blocks.written.get(i).copied().unwrap_or(true),
                     length: blocks.length[i],
                     programmed,
                     min_feed: programmed,

@@ -35,11 +35,23 @@ pub(crate) struct EmitArgs {
     /// extension (`part.cl` → `part.mpf`).
     #[arg(long, short = 'o', value_name = "OUT")]
     output: Option<PathBuf>,
-    /// How motion is written: `g1` (axis values, programmed feed), `inverse-time` (G93, F = 1/Δt
-    /// on every block), `bspline` (Siemens BSPLINE through the axis positions, within tolerance)
-    /// or `tcp` (tool tip and vector; the controller solves the kinematics).
-    #[arg(long, value_enum, default_value_t = ModeArg::G1)]
+    /// How motion is written: `auto` (a program that turns the tool while cutting in `tcp` where
+    /// the dialect has it, else `inverse-time`, so that F is the tool's feed on the part; any other
+    /// in `g1`), `g1` (axis values, programmed feed), `inverse-time` (G93, F = 1/Δt on every
+    /// block), `bspline` (Siemens BSPLINE through the axis positions, within tolerance) or `tcp`
+    /// (tool tip and orientation; the controller solves the kinematics).
+    #[arg(long, value_enum, default_value_t = ModeArg::Auto)]
     mode: ModeArg,
+    /// In TCP mode, the tool's orientation as the rotary axes' angles (`G43.4`, `ORIAXES`,
+    /// `M128` with `L`, `G234`) or as the tool vector (`G43.5 I J K`, `ORIVECT A3 B3 C3`, `LN …
+    /// TX TY TZ`).
+    #[arg(long, value_enum, default_value_t = TcpOrientationArg::Angles)]
+    tcp_orientation: TcpOrientationArg,
+    /// 3+2 set-ups in the controller's tilted working plane (`cycle`: `G68.2`, `G254`,
+    /// `CYCLE800`, `PLANE VECTOR`), where the dialect has one and the machine's rotary axes carry
+    /// the part, or as axis values (`joints`).
+    #[arg(long, value_enum, default_value_t = PlaneModeArg::Cycle)]
+    plane_mode: PlaneModeArg,
     /// CL arcs as circular interpolation wherever they are circles of the program's frame
     /// (`native`), or always as straight moves within the tolerance (`linear`).
     #[arg(long, value_enum, default_value_t = ArcsArg::Native)]
@@ -80,9 +92,24 @@ pub(crate) enum CyclesArg {
     Expand,
 }
 
+/// `--tcp-orientation`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum TcpOrientationArg {
+    Angles,
+    Vectors,
+}
+
+/// `--plane-mode`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum PlaneModeArg {
+    Cycle,
+    Joints,
+}
+
 /// `--mode`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum ModeArg {
+    Auto,
     G1,
     InverseTime,
     Bspline,
@@ -90,13 +117,32 @@ pub(crate) enum ModeArg {
 }
 
 impl ModeArg {
-    /// The emitter's mode.
-    pub(crate) fn mode(self) -> Mode {
+    /// The mode for the tool path `path` on `machine` in `dialect`: the one asked for, or for
+    /// `auto` the one whose F is the tool's feed on the part where the tool turns while cutting
+    /// (TCP where the dialect has it, else inverse time), `g1` otherwise.
+    pub(crate) fn resolve(
+        self,
+        path: &postpro_cl::ToolPath,
+        machine: &postpro_machine::model::Machine,
+        dialect: &Dialect,
+    ) -> Mode {
         match self {
             ModeArg::G1 => Mode::G1,
             ModeArg::InverseTime => Mode::InverseTime,
             ModeArg::Bspline => Mode::Bspline,
             ModeArg::Tcp => Mode::Tcp,
+            ModeArg::Auto => {
+                let rotary = machine.axes.iter().any(|a| a.kind == postpro_machine::model::AxisKind::Rotary);
+                if !rotary || !path.turns_tool_while_cutting() {
+                    Mode::G1
+                } else if dialect.tcp != postpro_emit::TcpStyle::None {
+                    Mode::Tcp
+                } else if dialect.inverse_time_range.is_some() {
+                    Mode::InverseTime
+                } else {
+                    Mode::G1
+                }
+            }
         }
     }
 }
@@ -142,10 +188,10 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             2,
         );
     }
-    let mode = args.mode.mode();
-    if let Err(e) = postpro_emit::check_mode(dialect, mode) {
-        return fail(&report::render(&e), 1);
-    }
+    let tcp_orientation = match args.tcp_orientation {
+        TcpOrientationArg::Angles => postpro_emit::TcpOrientation::Angles,
+        TcpOrientationArg::Vectors => postpro_emit::TcpOrientation::Vectors,
+    };
 
     let big = std::fs::metadata(file).is_ok_and(|m| m.len() as usize > PROGRESS_BYTES);
     let progress = (std::io::stderr().is_terminal() && big).then(|| {
@@ -166,10 +212,18 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             }
         }
     };
-    let job = match prepare(file, &chosen, &args.ikt, &args.setup, mode, crate::job::WRITTEN, &stage) {
+    let job = match prepare(file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), crate::job::WRITTEN, &stage) {
         Ok(job) => job,
         Err(code) => return code,
     };
+    let mode = job.mode;
+    let checked = postpro_emit::check_mode(dialect, mode).and_then(|()| {
+        if mode == Mode::Tcp { postpro_emit::check_orientation(dialect, tcp_orientation) } else { Ok(()) }
+    });
+    if let Err(e) = checked {
+        stage("");
+        return fail(&report::render(&e), 1);
+    }
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
     let writing = Writing {
         mode,
@@ -181,7 +235,9 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         shapes: crate::job::Shapes {
             linear_arcs: args.arcs == ArcsArg::Linear,
             expand_cycles: args.cycles == CyclesArg::Expand,
+            planes: args.plane_mode == PlaneModeArg::Cycle,
         },
+        tcp_orientation,
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
     };
     write_job(&job, &writing, &stage)
@@ -201,8 +257,10 @@ pub(crate) struct Writing<'a> {
     pub(crate) program_name: String,
     /// Number the blocks.
     pub(crate) block_numbers: bool,
-    /// How arcs and cycles are written.
+    /// How arcs, cycles and 3+2 set-ups are written.
     pub(crate) shapes: crate::job::Shapes,
+    /// How TCP mode gives the tool's orientation.
+    pub(crate) tcp_orientation: postpro_emit::TcpOrientation,
     /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
     pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
 }
@@ -241,6 +299,7 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
         program_name: how.program_name.clone(),
         source_name: source.name().to_string(),
         block_numbers: how.block_numbers,
+        tcp_orientation: how.tcp_orientation,
         prediction,
         annotations,
     };

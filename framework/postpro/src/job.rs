@@ -108,16 +108,16 @@ fn report_reading(source: &Source, path: &ToolPath, strict: bool, notes: bool) -
     warnings.len() + usize::from(!unknown.is_empty())
 }
 
-/// Reads `file` and solves it on `chosen` with `ikt` and `setup`, for `mode`. `stage` is told
-/// what is being done; `nothing` ends the message when the file does not read ("nothing
-/// written").
+/// Reads `file` and solves it on `chosen` with `ikt` and `setup`, for the mode asked for in
+/// the dialect (`auto` decided on the tool path). `stage` is told what is being done; `nothing`
+/// ends the message when the file does not read ("nothing written").
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn prepare(
     file: &Path,
     chosen: &Chosen,
     ikt: &IktArgs,
     setup: &SetupArgs,
-    mode: Mode,
+    (mode, dialect): (crate::emit::ModeArg, &Dialect),
     nothing: &str,
     stage: &dyn Fn(&str),
 ) -> Result<Job, ExitCode> {
@@ -160,6 +160,7 @@ pub(crate) fn prepare(
         };
         return Err(fail(&format!("error: {} has no motion: {why}; {nothing}\n", source.name()), 1));
     }
+    let mode = mode.resolve(&path, &machine, dialect);
     // Linear travels are checked on the program, in the work offset's frame, once it is built:
     // the kinematics' machine coordinates are those of the definition's assumed part zero.
     let mut solve_machine = machine.clone();
@@ -210,13 +211,18 @@ pub(crate) fn prepare(
 }
 
 impl Job {
-    /// The motion program of this job for `dialect` (arcs and canned cycles as the controller's
-    /// unless `how` says otherwise), checked against the travels; an error is printed with the CL
-    /// source, warnings are printed.
+    /// The motion program of this job for `dialect` (arcs, canned cycles and 3+2 set-ups as the
+    /// controller's unless `how` says otherwise), checked against the travels; an error is printed
+    /// with the CL source, warnings are printed.
     pub(crate) fn motion(&self, dialect: &Dialect, how: Shapes) -> Result<postpro_motion::Program, ExitCode> {
         let kin = self.solver.kinematics();
+        let planes = if how.planes { self.planes(dialect) } else { None };
         let job = postpro_motion::Job {
-            frame: postpro_motion::work_frame(kin, self.mode),
+            frame: if planes.is_some() {
+                postpro_motion::part_zero_frame(kin)
+            } else {
+                postpro_motion::work_frame(kin, self.mode)
+            },
             work_offset: self.setup.work_offset.unwrap_or_else(|| dialect.default_work_offset()),
             tooling: self.tooling.clone(),
             kinematic_lengths: self.kinematic_lengths.clone(),
@@ -224,6 +230,7 @@ impl Job {
         };
         let mut options = postpro_emit::motion_options(dialect, self.mode, !how.linear_arcs);
         options.cycles = !how.expand_cycles;
+        options.planes = planes;
         let render =
             |e: postpro_motion::MotionError| report::render_with_source(e, self.source.name(), self.source.text());
         let program =
@@ -235,6 +242,39 @@ impl Job {
             return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors\n"), 1));
         }
         Ok(program)
+    }
+}
+
+impl Job {
+    /// The working planes the program's 3+2 set-ups are written in, in `dialect`: its own, where
+    /// it has them, the mode writes axis values (`g1`, `inverse-time`), the machine's rotary axes
+    /// carry the part and no feed move turns them. Where the program has tilted set-ups and no
+    /// plane can be used, a note says why.
+    fn planes(&self, dialect: &Dialect) -> Option<postpro_motion::PlaneKind> {
+        let kin = self.solver.kinematics();
+        let chain = &self.machine.chain;
+        let steps = &self.solved.steps;
+        let rotaries: Vec<usize> = chain.part.iter().chain(&chain.tool).copied().collect();
+        let tilted = steps.iter().any(|s| rotaries.iter().any(|&i| s.joints[i].abs() > 1e-9));
+        let why = if dialect.planes.is_none() {
+            format!("the {} dialect has no working planes", dialect.name)
+        } else if !matches!(self.mode, Mode::G1 | Mode::InverseTime) {
+            format!("{} mode writes no working planes", self.mode.name())
+        } else if !chain.tool.is_empty() {
+            format!(
+                "working planes are written for machines whose rotary axes carry the part, not {}",
+                self.machine.name
+            )
+        } else if postpro_motion::simultaneous(kin, steps) {
+            // Simultaneous motion: there is no set-up to speak of.
+            return None;
+        } else {
+            return dialect.planes.filter(|_| !chain.part.is_empty());
+        };
+        if tilted && self.mode != Mode::Tcp {
+            eprintln!("note: the 3+2 set-ups are written as axis values, not in working planes: {why}");
+        }
+        None
     }
 }
 
@@ -258,6 +298,8 @@ pub(crate) struct Shapes {
     pub(crate) linear_arcs: bool,
     /// Every canned cycle as moves (`--cycles expand`).
     pub(crate) expand_cycles: bool,
+    /// 3+2 set-ups in the controller's working planes where it can (`--plane-mode cycle`).
+    pub(crate) planes: bool,
 }
 
 /// The dialect of a machine, or the first one postpro knows when the machine names none it

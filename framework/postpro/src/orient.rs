@@ -113,11 +113,12 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
-    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, args.mode.mode(), "nothing oriented", &|_| {})
-    {
-        Ok(job) => job,
-        Err(code) => return code,
-    };
+    let dialect = crate::job::machine_dialect(&chosen.machine);
+    let job =
+        match prepare(&args.file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), "nothing oriented", &|_| {}) {
+            Ok(job) => job,
+            Err(code) => return code,
+        };
     let kin = job.solver.kinematics();
     let machine = &job.machine;
     let level = match args.level {
@@ -133,7 +134,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
     if paths.is_empty() {
         return fail(&format!("error: {} has no feed path to orient\n", job.source.name()), 1);
     }
-    let mode = args.mode.mode();
+    let mode = job.mode;
     let original_program = match job.motion(crate::job::machine_dialect(machine), crate::job::Shapes::default()) {
         Ok(program) => program,
         Err(code) => return code,
@@ -297,7 +298,8 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             output: out,
             program_name: name,
             block_numbers: false,
-            shapes: crate::job::Shapes::default(),
+            shapes: crate::job::Shapes { planes: true, ..crate::job::Shapes::default() },
+            tcp_orientation: postpro_emit::TcpOrientation::Angles,
             prediction: Some((&args.prediction, &args.marks)),
         };
         return write_job(&oriented, &writing, &|_| {});
@@ -468,7 +470,7 @@ fn table(job: &Job, args: &OrientArgs, f: &Findings<'_>) -> String {
             let _ = writeln!(out, "  no set-up puts the tool axis within the cone");
         }
     }
-    let _ = writeln!(out, "\npredicted cycle time ({} mode)", args.mode.mode().name());
+    let _ = writeln!(out, "\npredicted cycle time ({} mode)", job.mode.name());
     let _ = writeln!(out, "  original set-up          {original:.2} s");
     let _ = writeln!(out, "  one set-up, whole part   {}", cycle_text(whole, original));
     let _ = writeln!(out, "  one set-up per path      {}", cycle_text(per_path, original));
@@ -545,7 +547,7 @@ fn json(job: &Job, machine: &Machine, args: &OrientArgs, f: &Findings<'_>) -> St
         .collect();
     let doc = json!({
         "file": job.source.name(), "machine": machine.name, "level": level.name(), "cone_deg": args.cone,
-        "mode": args.mode.mode().name(),
+        "mode": job.mode.name(),
         "original": { "cycle_time_s": original },
         "whole_part": { "direction": v3(&part.axis), "length_mm": part.length, "best": reach(part_best), "prediction": cycle(whole) },
         "per_path": { "prediction": cycle(per_path), "paths": paths },

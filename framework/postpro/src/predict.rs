@@ -105,10 +105,14 @@ pub(crate) struct PredictArgs {
     /// job writes them.
     #[arg(long, value_enum, default_value_t = crate::emit::CyclesArg::Native)]
     cycles: crate::emit::CyclesArg,
-    /// The output mode the prediction is for, as the main job's `--mode` (default the same, g1):
-    /// `g1` (F is the feed of the linear axes), `inverse-time`, `tcp` or `bspline` (F is the feed
-    /// of the tool tip).
-    #[arg(long, value_enum, default_value_t = ModeArg::G1)]
+    /// 3+2 set-ups in the controller's working plane (`cycle`) or as axis values (`joints`), as
+    /// the main job writes them.
+    #[arg(long, value_enum, default_value_t = crate::emit::PlaneModeArg::Cycle)]
+    plane_mode: crate::emit::PlaneModeArg,
+    /// The output mode the prediction is for, as the main job's `--mode` (default the same,
+    /// `auto`): `g1` (F is the feed of the linear axes), `inverse-time`, `tcp` or `bspline` (F is
+    /// the feed of the tool tip).
+    #[arg(long, value_enum, default_value_t = ModeArg::Auto)]
     mode: ModeArg,
     #[command(flatten)]
     prediction: PredictionArgs,
@@ -292,17 +296,26 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     {
         return fail(&format!("error: --period must be a positive number of ms, found {ms}\n"), 2);
     }
-    let mode = args.mode.mode();
-    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, mode, "nothing predicted", &|_| {}) {
+    let dialect = crate::job::machine_dialect(&chosen.machine);
+    let job = match prepare(
+        &args.file,
+        &chosen,
+        &args.ikt,
+        &args.setup,
+        (args.mode, dialect),
+        "nothing predicted",
+        &|_| {},
+    ) {
         Ok(job) => job,
         Err(code) => return code,
     };
     let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some() || args.report.is_some();
-    let mode = args.mode.mode();
+    let mode = job.mode;
     let planner = effective(args.prediction.planner(), mode);
     let shapes = crate::job::Shapes {
         linear_arcs: args.arcs == crate::emit::ArcsArg::Linear,
         expand_cycles: args.cycles == crate::emit::CyclesArg::Expand,
+        planes: args.plane_mode == crate::emit::PlaneModeArg::Cycle,
     };
     let program = match job.motion(crate::job::machine_dialect(&job.machine), shapes) {
         Ok(program) => program,
@@ -441,7 +454,7 @@ fn table(run: &Run<'_>) -> String {
         job.source.name(),
         machine.name,
         planner_name(planner),
-        args.mode.mode().name(),
+        job.mode.name(),
         prediction.blocks.len()
     );
     let _ = writeln!(out, "predicted cycle time   {:>10.2} s", totals.cycle_time);
@@ -804,7 +817,7 @@ fn html_report(run: &Run<'_>, svg: &str) -> html::Report {
             "{} planner, {} mode, {} blocks; a slowdown is marked below {}% of F with at least {} s lost, exact \
              stops, plunges and retracts aside, at most {} per operation",
             planner_name(planner),
-            args.mode.mode().name(),
+            job.mode.name(),
             prediction.blocks.len(),
             args.prediction.threshold,
             rules.min_loss,

@@ -156,6 +156,8 @@ impl IktArgs {
         }
         if let Some(v) = self.singular_cone {
             p.singular_cone = v.to_radians();
+            // A pole passage is at least the singular cone.
+            p.pole_passage = p.pole_passage.max(p.singular_cone);
         }
         if let Some(v) = self.max_rotary_step {
             p.max_rotary_step = v.to_radians();
@@ -221,7 +223,8 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
         Err(code) => return code,
     };
     let mode = postpro_emit::Mode::G1;
-    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, &args.setup, mode, "nothing solved", &|_| {}) {
+    let how = (crate::emit::ModeArg::G1, crate::job::machine_dialect(&chosen.machine));
+    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, &args.setup, how, "nothing solved", &|_| {}) {
         Ok(job) => job,
         Err(code) => return code,
     };

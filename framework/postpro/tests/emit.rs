@@ -40,7 +40,7 @@ fn the_program_goes_next_to_the_cl_file_with_the_dialect_extension() {
     let o = postpro(&["--machine", "mikron", "hypar-5axis.cl"], &dir);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let program = std::fs::read_to_string(dir.join("hypar-5axis.mpf")).expect("hypar-5axis.mpf written");
-    assert!(program.starts_with("; HYPAR-5AXIS: hypar-5axis.cl on mikron-ucp710, mode g1\n"), "{}", &program[..200]);
+    assert!(program.starts_with("; HYPAR-5AXIS: hypar-5axis.cl on mikron-ucp710, mode tcp\n"), "{}", &program[..200]);
     assert!(program.ends_with("M30\n"));
     assert!(
         text(&o.stderr).lines().any(|l| l.starts_with("wrote hypar-5axis.mpf for mikron-ucp710 ")),

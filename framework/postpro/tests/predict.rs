@@ -115,7 +115,7 @@ fn predict_prints_the_totals_and_the_worst_slowdowns() {
     insta::assert_snapshot!("hypar_mikron_table", out);
 
     let t = table(&out);
-    assert!(out.starts_with(&format!("{EXAMPLE} on mikron-ucp710 (inverse-time planner, g1 mode, ")), "{out}");
+    assert!(out.starts_with(&format!("{EXAMPLE} on mikron-ucp710 (inverse-time planner, tcp mode, ")), "{out}");
     assert!(
         t.cycle_time >= t.programmed_time,
         "the machine never runs faster than programmed: {} s predicted, {} s programmed",
@@ -129,9 +129,17 @@ fn predict_prints_the_totals_and_the_worst_slowdowns() {
     let sum: f64 = by_cause.iter().map(|r| r.1).sum();
     assert!((total - t.lost).abs() <= 0.005, "total {total} s, lost {} s:\n{out}", t.lost);
     assert!((sum - t.lost).abs() <= 0.005 * (by_cause.len() as f64 + 1.0), "the causes add up to {sum} s:\n{out}");
-    for cause in ["G1 feed on the axes", "corner", "exact stop", "plunge or retract"] {
+    for cause in ["corner", "exact stop", "plunge or retract"] {
         assert!(by_cause.iter().any(|r| r.0 == cause), "{cause} among the causes:\n{out}");
     }
+    // In TCP mode F is the tip's feed; in G1 it is the axes', which slows the hypar down.
+    assert!(!by_cause.iter().any(|r| r.0 == "G1 feed on the axes"), "{out}");
+    let o = postpro(&["predict", EXAMPLE, "--machine", MACHINE, "--mode", "g1"], &repo());
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(&o));
+    let g1 = stdout(&o);
+    let (by_cause, _) = causes(&g1);
+    assert!(by_cause.iter().any(|r| r.0 == "G1 feed on the axes" && r.1 > 10.0), "{g1}");
+    assert!(table(&g1).cycle_time > t.cycle_time, "G1 is slower than TCP on the hypar:\n{g1}");
 
     // One operation, all of the program.
     let operations = section(&out, "  operation ");
@@ -966,9 +974,9 @@ fn main_job_marks_the_slowdowns(planner: &str) {
     let operation = program.header(OPERATION).expect("the operation's line");
     assert!(operation.starts_with("; operation VARIABLE_CONTOUR: predicted "), "{operation}");
 
-    // The cycle time is the one `postpro predict` gives for the same mode (the main job's default
-    // is g1), and stderr says it too.
-    let o = postpro(&["predict", CL, "--machine", MACHINE, "--mode", "g1", "--planner", planner], &dir);
+    // The cycle time is the one `postpro predict` gives for the same mode (for both, by default,
+    // TCP on this simultaneous program), and stderr says it too.
+    let o = postpro(&["predict", CL, "--machine", MACHINE, "--planner", planner], &dir);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let t = table(&stdout(&o));
     let cycle = format!("{:.1}", t.cycle_time);

@@ -158,6 +158,8 @@ impl Reader {
         let mut letters: Vec<Word> = Vec::new();
         let mut g_codes = Vec::new();
         let mut m_codes = Vec::new();
+        // `E` is G187's corner tolerance (Haas smoothing), nothing else's.
+        let smoothing = words.iter().any(|w| w.letter == 'G' && code(w.value) == 1870);
         for &w in words {
             match w.letter {
                 'N' => {}
@@ -167,7 +169,7 @@ impl Reader {
                     if letters.iter().any(|o| o.letter == letter) {
                         return Err(self.b.error(line, w.column, format!("`{letter}` twice in one block")));
                     }
-                    if !"XYZABCIJKRQPLFHDTS".contains(letter) {
+                    if !("XYZABCIJKRQPLFHDTS".contains(letter) || letter == 'E' && smoothing) {
                         return Err(self.b.error(
                             line,
                             w.column,
