@@ -268,6 +268,106 @@ fn every_arc_of_clsplits_programs_is_ours() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// clsplit's program of a set-up as written: its `CYCL DEF 7` datum shift taken back out of the
+/// positions (the reader adds it, to give them in the frame the program starts in).
+fn without_datum_shift(program: &Program) -> Program {
+    let mut out = program.clone();
+    for event in &program.events {
+        let tests::nc::EventKind::WorkOffset { name, offset: Some(shift) } = &event.kind else { continue };
+        if name != "CYCL DEF 7" {
+            continue;
+        }
+        let shift = shift.map(|v| v.unwrap_or(0.0));
+        let back = |p: &mut [f64; 3]| (0..3).for_each(|k| p[k] -= shift[k]);
+        for m in &mut out.motions[event.before..] {
+            back(&mut m.from);
+            back(&mut m.to);
+            if let tests::nc::MotionKind::Arc(arc) = &mut m.kind {
+                back(&mut arc.center);
+            }
+        }
+    }
+    out
+}
+
+/// clsplit's programs of the tilted set-ups (its 3+2 SOLIDWORKS CAM parts: a side face, 90°
+/// about Y, of Teste-Metrologia and boss; the opposite side, C 180° B 90°, of wall-holes; a wedge
+/// tilted 0.29° of shimemcunha) against ours on the Haas UMC-750, a table-table with B about Y and
+/// C about Z like clsplit's machine, through rs274: every arc of each set-up program is in ours,
+/// with end, centre, plane and sense (0.002 mm).
+///
+/// The frame: clsplit writes a set-up's points rotated about the part zero so that the set-up's
+/// axis is +Z (`p' = Ry(−B)·Rz(−C)·p`, its README), then shifts the datum by `CYCL DEF 7` to
+/// where the measured pivot puts it. Ours, in joint mode with the part zero on the table axes'
+/// intersection (`--part-origin 0,0,0`), are the same rotation of the same points: the axis values
+/// of the tilted table. So clsplit's positions are compared as written, the datum shift taken
+/// back out. Sacrifice-Board is left out: its second set-up points along −Z, beyond the Haas's B
+/// travel (and clsplit wrote `nan` for it); so is shimemcunha's second set-up, `12.h`, which our
+/// reader tilts ([`shimemcunhas_second_set_up_is_about_z_as_its_csys_says`]).
+#[test]
+fn every_arc_of_clsplits_tilted_set_ups_is_ours() {
+    let cases: Vec<Case> = golden::clsplit_cases()
+        .into_iter()
+        .filter(|c| !three_axis(&c.input) && !c.name.ends_with("Sacrifice-Board"))
+        .collect();
+    assert_eq!(cases.len(), 4, "{cases:?}");
+    tilted_set_ups(&cases, |program| !program.ends_with("shimemcunha/expected/12.h"));
+}
+
+/// shimemcunha's second set-up (`CSYS/1.,0,0,0,0,1.,0,0,0,0,1.,0` after the first's tilted one,
+/// then 3-value GOTOs) is about +Z: clsplit machines it so (`12.h`: "axis 0.000 0.000 1.000";
+/// its README: the set-up axis is the CSYS's third column). Our reader keeps the tool axis of the
+/// first set-up's 6-value GOTOs, (0.005061, 0, 0.999987): the Haas stays at B 0.29° for the three
+/// holes and the contours, whose 28 arcs are then not circles of the frame and come out as chords
+/// (none of clsplit's arcs is in ours). Reported (issue 12's tests); ignored until the reader takes
+/// a SOLIDWORKS CAM set-up's axis from its `CSYS`.
+#[test]
+#[ignore = "product bug: after a SOLIDWORKS CAM CSYS the 3-value GOTOs keep the previous set-up's tool axis"]
+fn shimemcunhas_second_set_up_is_about_z_as_its_csys_says() {
+    let cases: Vec<Case> = golden::clsplit_cases().into_iter().filter(|c| c.name.ends_with("shimemcunha")).collect();
+    tilted_set_ups(&cases, |program| program.ends_with("shimemcunha/expected/12.h"));
+}
+
+/// Every arc of clsplit's set-up programs of `cases` that `compared` keeps is in ours (the Haas,
+/// through rs274, the part zero on the table axes' intersection), the datum shift taken out.
+fn tilted_set_ups(cases: &[Case], compared: impl Fn(&Path) -> bool) {
+    let mut out = String::new();
+    let mut failures = Vec::new();
+    for case in cases {
+        let cl = backsim::read_cl(&case.input, &ReadOptions::default());
+        let extra = ["--units", "mm", "--part-origin", "0,0,0"];
+        let ours = match backsim::write("arcs-peers", &case.input, "haas-umc750", "linuxcnc", &extra) {
+            Ok(written) => match backsim::rs274(&written, &cl) {
+                None => return,
+                Some(ran) => ran,
+            },
+            Err(e) => Err(e),
+        };
+        let ours = match ours {
+            Ok(p) => p,
+            Err(e) => {
+                failures.push(format!("{}: {e}", case.name));
+                continue;
+            }
+        };
+        let set_ups = case.expected.iter().filter(|p| {
+            p.file_stem().is_some_and(|s| s.to_string_lossy().chars().all(|c| c.is_ascii_digit()))
+                && !p.ends_with("0TREF.h")
+                && compared(p)
+        });
+        for program in set_ups {
+            let clsplit = without_datum_shift(&theirs(program, heidenhain::read));
+            let c = arcs_match(&ours.motions, &clsplit.motions, 2e-3);
+            let _ = writeln!(out, "{} {}: clsplit's arcs {c}", case.name, backsim::data_name(program));
+            if !c.is_match() {
+                failures.push(format!("{} {}: {c}", case.name, backsim::data_name(program)));
+            }
+        }
+    }
+    report(&out);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// An NX CLSF (3-axis, arcs clockwise about their axis vector) with the arc cases a post gets
 /// wrong: a full circle of R 20 about +Z (start = end; G2 seen from +Z), a helix of 3 turns in
 /// all about −Z (`TIMES,3`: two full turns and a quarter, counter-clockwise seen from +Z, 6 mm
