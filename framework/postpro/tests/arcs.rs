@@ -8,7 +8,7 @@ mod common;
 
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::backsim;
 use postpro_cl::ReadOptions;
@@ -44,7 +44,7 @@ fn frame_plane(normal: [f64; 3]) -> Option<usize> {
 
 /// Every real 3-axis CL file with arcs under `../shared/data` (corpus, peer inputs, hold-out),
 /// as our reader classifies it.
-fn three_axis_files_with_arcs() -> Vec<(String, std::path::PathBuf)> {
+fn three_axis_files_with_arcs() -> Vec<(String, PathBuf)> {
     tests::real_cl_files()
         .into_iter()
         .filter(|(_, path)| {
@@ -168,24 +168,6 @@ fn theirs(path: &Path, reader: fn(&str, &str) -> Result<Program, tests::Error>) 
     reader(&backsim::data_name(path), &text).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// Our program of a peer's CL file on the 3-axis VMC: LinuxCNC through rs274, and in the
-/// peer's own dialect read by the reader that reads theirs.
-fn ours(
-    case: &Case,
-    dialect: &str,
-    reader: fn(&str, &str) -> Result<Program, tests::Error>,
-    extra: &[&str],
-) -> Result<[Program; 2], String> {
-    let cl = backsim::read_cl(&case.input, &ReadOptions::default());
-    let written = backsim::write("arcs-peers", &case.input, VMC, "linuxcnc", extra)?;
-    let Some(ran) = backsim::rs274(&written, &cl) else { return Err("skipped".into()) };
-    let through_rs274 = ran?;
-    let same = backsim::write("arcs-peers", &case.input, VMC, dialect, extra)?;
-    let name = same.path.to_string_lossy().into_owned();
-    let same_dialect = reader(&name, &same.text).map_err(|e| e.to_string())?;
-    Ok([through_rs274, same_dialect])
-}
-
 /// Siemens NX's own Haas post (the MECH491 pairs) against ours, on the four 3-axis NX CLSFs:
 /// every arc of NX's program is in ours, in order, with the same end point, centre, plane and
 /// sense (0.0002 in: both write four decimals of an inch, the centre as the start plus I J).
@@ -195,30 +177,16 @@ fn ours(
 /// inch`).
 #[test]
 fn every_arc_of_the_nx_posts_programs_is_ours() {
-    let mut out = String::new();
-    let mut failures = Vec::new();
-    let cases: Vec<Case> = golden::nx_haas_cases().into_iter().filter(|c| three_axis(&c.input)).collect();
+    let cases: Vec<(Case, PathBuf)> = golden::nx_haas_cases()
+        .into_iter()
+        .filter(|c| three_axis(&c.input))
+        .map(|c| {
+            let program = c.expected[0].clone();
+            (c, program)
+        })
+        .collect();
     assert_eq!(cases.len(), 4, "the four 3-axis MECH491 pairs");
-    for case in &cases {
-        let nx = theirs(&case.expected[0], fanuc::read);
-        let [rs274, fanuc] = match ours(case, "fanuc", fanuc::read, &["--units", "inch"]) {
-            Ok(p) => p.map(|p| p.in_units(Units::Inch)),
-            Err(e) if e == "skipped" => return,
-            Err(e) => {
-                failures.push(format!("{}: {e}", case.name));
-                continue;
-            }
-        };
-        for (how, program) in [("rs274", &rs274), ("our Fanuc program", &fanuc)] {
-            let c = arcs_match(&program.motions, &nx.motions, 2e-4);
-            let _ = writeln!(out, "{} ({how}): NX's arcs {c}", case.name);
-            if !c.is_match() {
-                failures.push(format!("{} ({how}): {c}", case.name));
-            }
-        }
-    }
-    report(&out);
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    peers_arcs_are_ours(&cases, ("fanuc", fanuc::read), &["--units", "inch"], Units::Inch, 2e-4);
 }
 
 /// clsplit's Heidenhain programs of the 3-axis SOLIDWORKS CAM parts (the AptPostProcessor
@@ -235,30 +203,67 @@ fn every_arc_of_the_nx_posts_programs_is_ours() {
 /// the part zero): compared as they are, the 3-axis parts having the one set-up `11`.
 #[test]
 fn every_arc_of_clsplits_programs_is_ours() {
+    let cases: Vec<(Case, PathBuf)> = golden::clsplit_cases()
+        .into_iter()
+        .filter(|c| three_axis(&c.input))
+        .map(|c| {
+            let programs = set_up_programs(&c);
+            assert_eq!(programs.len(), 1, "{}: one set-up program: {programs:?}", c.name);
+            let program = programs[0].clone();
+            (c, program)
+        })
+        .collect();
+    assert_eq!(cases.len(), 7, "the 3-axis AptPostProcessor parts");
+    peers_arcs_are_ours(&cases, ("heidenhain", heidenhain::read), &[], Units::Mm, 2e-3);
+}
+
+/// clsplit's set-up programs of a part: `NN.h` (not the datum shifts `NNsetup.h`, nor the
+/// probing `0TREF.h`).
+fn set_up_programs(case: &Case) -> Vec<&PathBuf> {
+    case.expected
+        .iter()
+        .filter(|p| p.file_stem().is_some_and(|s| s.to_string_lossy().chars().all(|c| c.is_ascii_digit())))
+        .filter(|p| !p.ends_with("0TREF.h"))
+        .collect()
+}
+
+/// A dialect and the harness's reader of it.
+type Dialect = (&'static str, fn(&str, &str) -> Result<Program, tests::Error>);
+
+/// Every arc of each case's peer program (read by the dialect's reader) is in ours on the VMC
+/// (`extra` arguments), in `units`, within `tolerance`: our LinuxCNC program through rs274, and
+/// our program in the peer's dialect read by the same reader.
+fn peers_arcs_are_ours(
+    cases: &[(Case, PathBuf)],
+    (dialect, reader): Dialect,
+    extra: &[&str],
+    units: Units,
+    tolerance: f64,
+) {
     let mut out = String::new();
     let mut failures = Vec::new();
-    let cases: Vec<Case> = golden::clsplit_cases().into_iter().filter(|c| three_axis(&c.input)).collect();
-    assert_eq!(cases.len(), 7, "the 3-axis AptPostProcessor parts: {cases:?}");
-    for case in &cases {
-        let programs: Vec<&std::path::PathBuf> = case
-            .expected
-            .iter()
-            .filter(|p| p.file_stem().is_some_and(|s| s.to_string_lossy().chars().all(|c| c.is_ascii_digit())))
-            .filter(|p| !p.ends_with("0TREF.h"))
-            .collect();
-        assert_eq!(programs.len(), 1, "{}: one set-up program: {programs:?}", case.name);
-        let clsplit = theirs(programs[0], heidenhain::read);
-        let [rs274, heidenhain] = match ours(case, "heidenhain", heidenhain::read, &[]) {
-            Ok(p) => p,
-            Err(e) if e == "skipped" => return,
-            Err(e) => {
-                failures.push(format!("{}: {e}", case.name));
-                continue;
-            }
+    for (case, program) in cases {
+        let peer = theirs(program, reader);
+        let cl = backsim::read_cl(&case.input, &ReadOptions::default());
+        let through_rs274 = match backsim::write("arcs-peers", &case.input, VMC, "linuxcnc", extra) {
+            Ok(written) => match backsim::rs274(&written, &cl) {
+                None => return,
+                Some(ran) => ran,
+            },
+            Err(e) => Err(e),
         };
-        for (how, program) in [("rs274", &rs274), ("our Heidenhain program", &heidenhain)] {
-            let c = arcs_match(&program.motions, &clsplit.motions, 2e-3);
-            let _ = writeln!(out, "{} ({how}): clsplit's arcs {c}", case.name);
+        let same_dialect = backsim::write("arcs-peers", &case.input, VMC, dialect, extra)
+            .and_then(|w| reader(&w.path.to_string_lossy(), &w.text).map_err(|e| e.to_string()));
+        for (how, ours) in [("rs274", through_rs274), (dialect, same_dialect)] {
+            let ours = match ours {
+                Ok(p) => p.in_units(units),
+                Err(e) => {
+                    failures.push(format!("{} ({how}): {e}", case.name));
+                    continue;
+                }
+            };
+            let c = arcs_match(&ours.motions, &peer.motions, tolerance);
+            let _ = writeln!(out, "{} ({how}): their arcs {c}", case.name);
             if !c.is_match() {
                 failures.push(format!("{} ({how}): {c}", case.name));
             }
@@ -350,11 +355,7 @@ fn tilted_set_ups(cases: &[Case], compared: impl Fn(&Path) -> bool) {
                 continue;
             }
         };
-        let set_ups = case.expected.iter().filter(|p| {
-            p.file_stem().is_some_and(|s| s.to_string_lossy().chars().all(|c| c.is_ascii_digit()))
-                && !p.ends_with("0TREF.h")
-                && compared(p)
-        });
+        let set_ups = set_up_programs(case).into_iter().filter(|p| compared(p));
         for program in set_ups {
             let clsplit = without_datum_shift(&theirs(program, heidenhain::read));
             let c = arcs_match(&ours.motions, &clsplit.motions, 2e-3);
@@ -400,7 +401,7 @@ fn helix_length() -> f64 {
 }
 
 /// `EDGES` written to the test's target folder.
-fn edges_file() -> std::path::PathBuf {
+fn edges_file() -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcs-edges");
     std::fs::create_dir_all(&dir).expect("a folder");
     let path = dir.join("edges.cls");
