@@ -7,7 +7,6 @@
 mod common;
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use common::backsim;
@@ -19,8 +18,9 @@ use tests::nc::{Program, Units};
 /// The machine every 3-axis file runs on, and its dialect.
 const VMC: &str = "example-3axis-vmc";
 
+/// The figures, shown with `--nocapture`.
 fn report(text: &str) {
-    let _ = writeln!(std::io::stderr(), "{text}");
+    eprintln!("{text}");
 }
 
 /// The machine's linearization tolerance (mm): how far a chord may leave the CL path.

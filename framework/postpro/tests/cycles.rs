@@ -19,7 +19,6 @@ mod common;
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use common::backsim::{self, Cl};
@@ -59,8 +58,9 @@ fn data() -> PathBuf {
     tests::shared_cl_dir().parent().map(Path::to_path_buf).unwrap_or_default()
 }
 
+/// The figures, shown with `--nocapture`.
 fn report(text: &str) {
-    let _ = writeln!(std::io::stderr(), "{text}");
+    eprintln!("{text}");
 }
 
 /// A hole as a program must drill it, in the program's frame (mm).
