@@ -183,8 +183,9 @@ pub const WINDOW: usize = 64;
 /// motions of `motions` (rapids left out); `None` without points.
 ///
 /// The points are walked in order with a cursor on the motions: each point's nearest motion is
-/// searched from [`WINDOW`] motions before the previous point's nearest, forward for as long as
-/// the distance keeps improving within [`WINDOW`] motions. A point the path passes near only far
+/// searched from [`WINDOW`] motions before the previous point's nearest to at least [`WINDOW`]
+/// after it, and on for as long as the distance keeps improving within [`WINDOW`] motions; at an
+/// equal distance, a motion at or after the previous point's is taken over one before it. A point the path passes near only far
 /// from where the walk is would be reported farther than it is, never nearer: the figure is an
 /// upper bound, exact when both follow one order. O((n + m) · WINDOW).
 pub fn max_distance_of_points_to_feed_path(points: &[[f64; 3]], motions: &[Motion]) -> Option<Farthest> {
@@ -196,10 +197,13 @@ pub fn max_distance_of_points_to_feed_path(points: &[[f64; 3]], motions: &[Motio
         let mut best = (start, f64::INFINITY);
         for (k, motion) in feeds.iter().enumerate().skip(start) {
             let d = motion.distance_to_point(p);
-            if d < best.1 {
+            // At an equal distance the walk does not go back: a motion at or after the previous
+            // point's wins over one before it (a retract the path makes again further on).
+            if d < best.1 || (d == best.1 && best.0 < cursor && k >= cursor) {
                 best = (k, d);
             }
-            if k >= cursor && k - best.0 >= WINDOW {
+            // At least WINDOW past the previous point's motion, and WINDOW past the best.
+            if k >= cursor + WINDOW && k - best.0 >= WINDOW {
                 break;
             }
         }

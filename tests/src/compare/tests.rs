@@ -104,6 +104,21 @@ fn the_farthest_point_from_a_feed_path_is_found_with_its_line() {
     assert_eq!((none.distance, none.line), (f64::INFINITY, None));
 }
 
+/// A path that comes back through a point it passed long before (a retract at the same X Y,
+/// many motions later): the walk follows the path there and finds the points after it, instead
+/// of going back to the first pass and losing the way.
+#[test]
+fn the_walk_does_not_go_back_to_an_earlier_pass_through_the_same_point() {
+    let mut path = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 3.0]];
+    path.extend((0..80).map(|i| [100.0 + f64::from(i), 0.0, 0.0]));
+    path.extend([[0.0, 0.0, 3.0], [0.0, 50.0, 3.0]]);
+    let motions = polyline(&path, 1);
+    // On the first retract, far out, where the path comes back, and on the motion after it.
+    let points = [[0.0, 0.0, 1.5], [140.0, 0.0, 0.0], [0.0, 0.0, 3.0], [0.0, 25.0, 3.0]];
+    let far = max_distance_of_points_to_feed_path(&points, &motions).expect("points");
+    assert!(far.distance < 1e-12, "{far:?}");
+}
+
 /// 10⁵ points along a path of 2·10⁵ motions (a zigzag whose passes are 1 mm apart, a point
 /// 0.001 above the middle of every other motion): the walk finds each point's pass, and takes far less than the
 /// 2·10¹⁰ distance evaluations of a search over every pair.

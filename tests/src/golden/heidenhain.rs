@@ -3,7 +3,7 @@
 //! `F`/`FMAX`/`FAUTO`, `R0`), `CC` centres and `C … DR±` arcs in the XY plane, `CP` polar arcs
 //! and helices (`PA`/`IPA`, `PR`/`IPR`, `Z`/`IZ`), `CYCL DEF 7` datum shifts, drilling cycles
 //! (`CYCL DEF 1` pecking, 200 drilling, 203 universal drilling) called by `CYCL CALL` or `M99`,
-//! `CYCL DEF 9` dwells, `TOOL DEF`/`TOOL CALL`, `M91`/`M92` machine-frame moves, `M128`/`M129`
+//! `CYCL DEF 9` dwells, `CYCL DEF 247` presets, `TOOL DEF`/`TOOL CALL` (`TOOL CALL S…` a speed), `M91`/`M92` machine-frame moves, `M128`/`M129`
 //! and `FUNCTION TCPM`.
 //!
 //! As the TNC: `FMAX` holds for its block only, `F` is modal; a `CC` without coordinates is the
@@ -78,6 +78,8 @@ struct Reader {
     cycle: Option<CycleDef>,
     /// Reading the Q lines of a `CYCL DEF 200/203`.
     in_cycle_def: bool,
+    /// Reading the Q line of a `CYCL DEF 247` (its preset number): passed over.
+    in_datum_setting: bool,
     /// A pending conditional jump: its label and line.
     jump: Option<String>,
     jump_line: usize,
@@ -95,6 +97,7 @@ impl Reader {
             tool_feed: None,
             cycle: None,
             in_cycle_def: false,
+            in_datum_setting: false,
             jump: None,
             jump_line: 0,
             ended: false,
@@ -117,14 +120,15 @@ impl Reader {
             return Ok(());
         }
         let upper = code.to_ascii_uppercase();
-        if self.in_cycle_def {
+        if self.in_cycle_def || self.in_datum_setting {
             if let Some((number, value)) = cycle_parameter(&upper) {
-                if let Some(CycleDef::Drilling { q, .. }) = &mut self.cycle {
+                if let (false, Some(CycleDef::Drilling { q, .. })) = (self.in_datum_setting, &mut self.cycle) {
                     q.push((number, value));
                 }
                 return Ok(());
             }
             self.in_cycle_def = false;
+            self.in_datum_setting = false;
         }
         let first = upper.split_whitespace().next().unwrap_or("");
         let error = |b: &Builder, message: String| b.error(n, column0 + 1, message);
@@ -409,6 +413,15 @@ impl Reader {
     fn tool(&mut self, n: usize, column0: usize, upper: &str) -> Result<(), Error> {
         let words: Vec<&str> = upper.split_whitespace().collect();
         let error = |b: &Builder, m: &str| b.error(n, column0 + 1, m);
+        // `TOOL CALL S…` / `TOOL CALL F…`: the spindle speed or the feed of the tool in the
+        // spindle changed, no tool change.
+        if words.get(1) == Some(&"CALL") && words.get(2).is_some_and(|w| w.starts_with(['S', 'F'])) {
+            if let Some(feed) = words[2..].iter().find_map(|w| w.strip_prefix('F').and_then(|v| v.parse::<f64>().ok()))
+            {
+                self.tool_feed = Some(feed);
+            }
+            return Ok(());
+        }
         let tool =
             words.get(2).and_then(|t| t.parse::<u32>().ok()).ok_or_else(|| error(&self.b, "expected a tool number"))?;
         let value =
@@ -490,6 +503,11 @@ impl Reader {
                         if values[index].is_none() {
                             return Err(error(&self.b, format!("expected a number at the end of `{}`", rest.trim())));
                         }
+                    }
+                    // DATUM SETTING: the preset of Q339 becomes the work frame, as G54 does.
+                    ("247", "") => {
+                        self.b.event(n, EventKind::WorkOffset { name: "CYCL DEF 247".into(), offset: None });
+                        self.in_datum_setting = true;
                     }
                     ("200" | "203", "") => {
                         self.cycle = Some(CycleDef::Drilling { number: cycle.parse().unwrap_or(200), q: Vec::new() });

@@ -376,6 +376,22 @@ fn heidenhain_inch_feeds_are_tenths_of_an_inch_per_minute() {
 }
 
 /// The peers' folders are found with their inputs and programs.
+/// What postpro's Heidenhain programs hold besides clsplit's: a `TOOL CALL S…` (a new spindle
+/// speed, no tool change) and a preset activated by `CYCL DEF 247` (a work offset, the
+/// positions in its frame).
+#[test]
+fn heidenhain_reads_a_speed_change_and_a_datum_setting() {
+    let text = "0 BEGIN PGM P MM\n1 TOOL CALL 3 Z\n2 TOOL CALL S9000\n3 CYCL DEF 247 DATUM SETTING ~\n  Q339=+1 ;DATUM NUMBER\n\
+                4 L X+1.000 Y+2.000 Z+3.000 FMAX\n5 L Z+0.000 F100\n6 END PGM P MM\n";
+    let p = heidenhain::read("p.h", text).unwrap_or_else(|e| panic!("{e}"));
+    let tools: Vec<&EventKind> =
+        p.events.iter().map(|e| &e.kind).filter(|k| matches!(k, EventKind::ToolChange { .. })).collect();
+    assert_eq!(tools, [&EventKind::ToolChange { tool: 3 }]);
+    assert!(p.events.iter().any(|e| e.kind == EventKind::WorkOffset { name: "CYCL DEF 247".into(), offset: None }));
+    assert_eq!(kinds(&p), ["rapid", "feed"]);
+    assert!(close3(p.motions[1].to, [1.0, 2.0, 0.0]), "{:?}", p.motions);
+}
+
 #[test]
 fn the_peer_cases_are_found() {
     let nx = nx_haas_cases();
