@@ -447,3 +447,36 @@ fn a_feed_out_of_range_is_limited_and_noted() {
     assert!(text.contains(note), "{text}");
     assert_eq!(text.matches("F10000").count(), 1, "the F word once, modal: {text}");
 }
+
+/// A stop's operator message is a comment of the dialect: parentheses in the CL text
+/// (`STOP/(INSTALL TEST STRIP)`, CATIA) do not nest a comment, which LinuxCNC refuses.
+#[test]
+fn a_stop_message_stays_one_comment() {
+    let src = postpro_cl::Source::new("stop.cl", "FEDRAT/MMPM,500\nGOTO/0,0,0\nSTOP/(TURN THE PART)\nGOTO/10,0,0\n");
+    let path = read(&src);
+    let m = machine("example-3axis-vmc");
+    let kin = solver_for(&m);
+    let solved = solve(kin.as_ref(), &path, &m.policy).expect("solves");
+    let options = Options {
+        units: postpro_machine::model::ProgramUnits::Mm,
+        program_name: "T".into(),
+        source_name: "stop.cl".into(),
+        block_numbers: false,
+        prediction: None,
+        annotations: Vec::new(),
+    };
+    for (name, stop) in [
+        ("linuxcnc", "M0 ([TURN THE PART])"),
+        ("fanuc", "M0 ([TURN THE PART])"),
+        ("siemens-840d", "M0 ; (TURN THE PART)"),
+    ] {
+        let d = dialect(name).expect("dialect");
+        let text = render(
+            &build(&motion(&path, &solved, kin.as_ref(), d, Mode::G1), &m, d, &options).expect("builds"),
+            d.name,
+            builtin_template(d.name).expect("template"),
+        )
+        .expect("renders");
+        assert!(text.lines().any(|l| l == stop), "{name}: {text}");
+    }
+}
