@@ -166,7 +166,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             }
         }
     };
-    let job = match prepare(file, &chosen, &args.ikt, &args.setup, mode, "nothing written", &stage) {
+    let job = match prepare(file, &chosen, &args.ikt, &args.setup, mode, crate::job::WRITTEN, &stage) {
         Ok(job) => job,
         Err(code) => return code,
     };

@@ -38,7 +38,12 @@ pub(crate) struct Job {
     pub(crate) kinematic_lengths: Vec<f64>,
     /// The mode the job was solved for.
     pub(crate) mode: Mode,
+    /// Every warning is an error (`--strict`).
+    pub(crate) strict: bool,
 }
+
+/// The end of the main job's error messages: its `nothing` argument of [`prepare`].
+pub(crate) const WRITTEN: &str = "nothing written";
 
 /// Prints `message` and gives the exit code.
 pub(crate) fn fail(message: &str, code: u8) -> ExitCode {
@@ -46,11 +51,61 @@ pub(crate) fn fail(message: &str, code: u8) -> ExitCode {
     ExitCode::from(code)
 }
 
-/// Prints warnings about a CL file on standard error, `file:line:column` first.
-pub(crate) fn warn_all<'w>(source: &Source, warnings: impl IntoIterator<Item = &'w postpro_motion::Warning>) {
+/// Prints warnings about a CL file on standard error, `file:line:column` first (as errors with
+/// `strict`); returns how many.
+pub(crate) fn warn_all<'w>(
+    source: &Source,
+    warnings: impl IntoIterator<Item = &'w postpro_motion::Warning>,
+    strict: bool,
+) -> usize {
+    let what = if strict { "error" } else { "warning" };
+    let mut count = 0;
     for w in warnings {
-        eprintln!("warning: {}: {}", source.location(w.span.start as usize), w.message);
+        eprintln!("{what}: {}: {}", source.location(w.span.start as usize), w.message);
+        count += 1;
     }
+    count
+}
+
+/// How many of a CL file's diagnostics are printed in full (one line each); the rest are
+/// counted.
+const PRINTED_WARNINGS: usize = 20;
+
+/// Says on standard error what the reader warned about and what it did not interpret (each word
+/// with its count, as `check` does), with `notes` also what it passed over; returns the number
+/// of warnings.
+fn report_reading(source: &Source, path: &ToolPath, strict: bool, notes: bool) -> usize {
+    let what = if strict { "error" } else { "warning" };
+    let warnings: Vec<_> = path.diagnostics.iter().filter(|d| !d.is_error()).collect();
+    for d in warnings.iter().take(PRINTED_WARNINGS) {
+        eprintln!("{what}: {}: {}", source.location(d.span.start as usize), d.message);
+    }
+    if warnings.len() > PRINTED_WARNINGS {
+        eprintln!(
+            "{what}: … and {} more (`postpro check {}` lists them all)",
+            warnings.len() - PRINTED_WARNINGS,
+            source.name()
+        );
+    }
+    let words = |unknown: bool| -> Vec<String> {
+        path.info
+            .uninterpreted
+            .iter()
+            .filter(|(_, u)| u.unknown == unknown)
+            .map(|(w, u)| format!("{w} ×{} (first at {})", u.count, source.location(u.first.start as usize)))
+            .collect()
+    };
+    let (unknown, passive) = (words(true), words(false));
+    if !unknown.is_empty() {
+        eprintln!("{what}: words not interpreted (written as comments): {}", unknown.join(", "));
+    }
+    if notes && !passive.is_empty() {
+        eprintln!("note: known words without effect on the path, passed over: {}", passive.join(", "));
+    }
+    if notes && path.info.listing_lines > 0 {
+        eprintln!("note: {} lines of the file are not APT (a listing's header and footer)", path.info.listing_lines);
+    }
+    warnings.len() + usize::from(!unknown.is_empty())
 }
 
 /// Reads `file` and solves it on `chosen` with `ikt` and `setup`, for `mode`. `stage` is told
@@ -90,6 +145,21 @@ pub(crate) fn prepare(
         }
         return Err(fail(&format!("error: {} does not read; {nothing}\n", source.name()), 1));
     }
+    // The main job says what it passes over; the other commands only what may matter.
+    let mut warnings = report_reading(&source, &path, setup.strict, nothing == WRITTEN);
+    let moves = path.items.iter().any(|i| {
+        matches!(i.kind, postpro_cl::ItemKind::Move(_) | postpro_cl::ItemKind::Arc(_) | postpro_cl::ItemKind::Nurbs(_))
+    });
+    if !moves {
+        stage("");
+        let why = if path.info.apt_source {
+            "it is an APT part program (source language: geometry and motion statements for an APT processor), \
+             not CL data; run it through an APT processor first"
+        } else {
+            "it has no GOTO, arc or NURBS"
+        };
+        return Err(fail(&format!("error: {} has no motion: {why}; {nothing}\n", source.name()), 1));
+    }
     // Linear travels are checked on the program, in the work offset's frame, once it is built:
     // the kinematics' machine coordinates are those of the definition's assumed part zero.
     let mut solve_machine = machine.clone();
@@ -110,7 +180,11 @@ pub(crate) fn prepare(
         job_setup.work_offset.unwrap_or_default(),
     )
     .map_err(|e| fail(&format!("{}error: {nothing}\n", render(e)), 1))?;
-    warn_all(&source, &tool_warnings);
+    warnings += warn_all(&source, &tool_warnings, setup.strict);
+    if setup.strict && warnings > 0 {
+        stage("");
+        return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {nothing}\n"), 1));
+    }
     stage("solving the kinematics");
     let solved = solve_with_tools(solver.kinematics(), &path, &solve_machine.policy, &tools.lengths());
     if let Some(e) = solver.take_error() {
@@ -131,6 +205,7 @@ pub(crate) fn prepare(
         tooling: tools.tooling,
         kinematic_lengths: tools.kinematic_lengths,
         mode,
+        strict: setup.strict,
     })
 }
 
@@ -155,7 +230,10 @@ impl Job {
             postpro_motion::collect(&self.path, &self.solved, kin, &options, &job).map_err(|e| fail(&render(e), 1))?;
         let travel = postpro_motion::travel::check(&program, &self.machine, self.setup.work_offset_at.as_ref())
             .map_err(|e| fail(&render(e), 1))?;
-        warn_all(&self.source, program.summary.warnings.iter().chain(&travel));
+        let warnings = warn_all(&self.source, program.summary.warnings.iter().chain(&travel), self.strict);
+        if self.strict && warnings > 0 {
+            return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors\n"), 1));
+        }
         Ok(program)
     }
 }

@@ -285,10 +285,11 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             postpro_emit::builtin_template(dialect.name).unwrap_or_default().to_string(),
         );
         let name = args.file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
-        let Job { source, machine, solver, setup, kinematic_lengths, mode: job_mode, .. } = job;
+        let Job { source, machine, solver, setup, kinematic_lengths, mode: job_mode, strict, .. } = job;
         // The re-oriented program loads the same tools at the same items.
         let (tooling, _) = postpro_motion::tooling(&path, setup.tool_table.as_ref());
-        let oriented = Job { source, path, machine, solver, solved, setup, tooling, kinematic_lengths, mode: job_mode };
+        let oriented =
+            Job { source, path, machine, solver, solved, setup, tooling, kinematic_lengths, mode: job_mode, strict };
         let writing = Writing {
             mode,
             dialect,

@@ -82,6 +82,9 @@ pub(crate) struct SetupArgs {
     /// The units the program is written in (default the machine definition's).
     #[arg(long, value_enum, value_name = "mm|inch")]
     units: Option<UnitArg>,
+    /// Every warning is an error: nothing is written where one was given.
+    #[arg(long)]
+    pub(crate) strict: bool,
 }
 
 fn parse_work_offset(s: &str) -> Result<WorkOffset, String> {
