@@ -11,13 +11,12 @@
 
 mod programs;
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use postpro_cl::{LengthUnit, ReadOptions};
 use programs::{
-    ClPoint, cl_points, data_dir, header_tools, machine, our_float_noise, out_dir, post, postpro, program_units,
-    reached_in_order, rs274_tools, stderr, tips,
+    ClPoint, cl_points, data_dir, header_tools, machine, on_two_threads, our_float_noise, out_dir, post, postpro,
+    program_units, reached_in_order, rs274_tools, stderr, tips,
 };
 use tests::rs274::Rs274;
 
@@ -240,44 +239,41 @@ fn float_noise_of(file: &str, posted: &programs::Posted) -> Vec<String> {
 fn every_real_file_posts_and_its_linuxcnc_program_reaches_the_cl_points_in_rs274() {
     let rs274 = Rs274::for_test();
     let dir = out_dir("real_files");
-    let mut report = String::new();
-    let mut failures = Vec::new();
-    for case in POSTED {
+    let outcomes = on_two_threads(POSTED, |case| {
         let stem = case.file.replace('/', "__");
         let out = dir.join(format!("{stem}.ngc"));
         let mut args = vec!["--machine", case.machine, "--dialect", "linuxcnc"];
         args.extend_from_slice(case.args);
-        let result = post(case.file, &args, &out).and_then(|posted| {
-            let noise = float_noise_of(case.file, &posted);
-            if !noise.is_empty() {
-                return Err(format!("numbers printed with float noise: {}", noise.join(", ")));
-            }
-            let Some(rs274) = &rs274 else { return Ok(format!("{}: posted", case.file)) };
-            let units = program_units(&posted.text);
-            let tools = header_tools(&posted.text);
-            let run = rs274.run(&posted.path, &rs274_tools(&tools, units)).map_err(|e| e.to_string())?;
-            let m = machine(case.machine);
-            let lengths: Vec<(u32, f64)> =
-                tools.iter().filter_map(|t| t.length.map(|l| (t.number, l * units.to_mm()))).collect();
-            let tips = tips(&run, &m, postpro_motion::Mode::G1, &lengths);
-            let points = cl_points(&data_dir().join(case.file), &read_options(case.args));
-            let (tolerance, angle) = tolerances(&m, units == tests::nc::Units::Inch);
-            let (distance, off) = reached_in_order(&points, &tips, tolerance, angle)?;
-            Ok(format!(
-                "{}: {} motions in rs274, {} CL points reached within {distance:.4} mm and {off:.4}°",
-                case.file,
-                run.motions.len(),
-                points.len()
-            ))
-        });
-        match result {
-            Ok(line) => {
-                let _ = writeln!(report, "{line}");
-            }
-            Err(e) => failures.push(format!("{} on {}: {e} ({})", case.file, case.machine, out.display())),
-        }
-    }
-    eprintln!("{report}");
+        post(case.file, &args, &out)
+            .and_then(|posted| {
+                let noise = float_noise_of(case.file, &posted);
+                if !noise.is_empty() {
+                    return Err(format!("numbers printed with float noise: {}", noise.join(", ")));
+                }
+                let Some(rs274) = &rs274 else { return Ok(format!("{}: posted", case.file)) };
+                let units = program_units(&posted.text);
+                let tools = header_tools(&posted.text);
+                let run = rs274.run(&posted.path, &rs274_tools(&tools, units)).map_err(|e| e.to_string())?;
+                let m = machine(case.machine);
+                let lengths: Vec<(u32, f64)> =
+                    tools.iter().filter_map(|t| t.length.map(|l| (t.number, l * units.to_mm()))).collect();
+                let tips = tips(&run, &m, postpro_motion::Mode::G1, &lengths);
+                let points = cl_points(&data_dir().join(case.file), &read_options(case.args));
+                let (tolerance, angle) = tolerances(&m, units == tests::nc::Units::Inch);
+                let (distance, off) = reached_in_order(&points, &tips, tolerance, angle)?;
+                Ok(format!(
+                    "{}: {} motions in rs274, {} CL points reached within {distance:.4} mm and {off:.4}°",
+                    case.file,
+                    run.motions.len(),
+                    points.len()
+                ))
+            })
+            .map_err(|e| format!("{} on {}: {e} ({})", case.file, case.machine, out.display()))
+    });
+    let report: Vec<&String> = outcomes.iter().filter_map(|o| o.as_ref().ok()).collect();
+    let failures: Vec<&String> = outcomes.iter().filter_map(|o| o.as_ref().err()).collect();
+    eprintln!("{}", report.iter().map(|r| r.as_str()).collect::<Vec<_>>().join("\n"));
+    let failures: Vec<&str> = failures.iter().map(|f| f.as_str()).collect();
     assert!(failures.is_empty(), "{} file(s) failed:\n{}", failures.len(), failures.join("\n\n"));
 }
 

@@ -18,7 +18,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use postpro_machine::model::{AxisKind, Clearance, Machine, Travel};
-use programs::{data_dir, machine, our_float_noise, out_dir, post, postpro, stderr, tips};
+use programs::{data_dir, machine, on_two_threads, our_float_noise, out_dir, post, postpro, stderr, tips};
 use tests::compare::motions_in_order;
 use tests::golden::{self, fanuc};
 use tests::nc::{EventKind, Motion, Program, Rotary, Units};
@@ -370,25 +370,6 @@ fn rotary_faults(
         before = Some(b);
     }
     (faults, checked)
-}
-
-/// `f` on every item on two threads (the CI machine's cores), the results in order.
-fn on_two_threads<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<std::sync::Mutex<Option<R>>> = items.iter().map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|s| {
-        for _ in 0..2 {
-            s.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(item) = items.get(k) else { break };
-                    let r = f(item);
-                    *results[k].lock().expect("a result slot") = Some(r);
-                }
-            });
-        }
-    });
-    results.into_iter().map(|m| m.into_inner().expect("a result slot").expect("every item done")).collect()
 }
 
 /// Every real 5-axis and 3+2 file on every built-in 5-axis machine, in the machine's own dialect

@@ -327,3 +327,22 @@ pub(crate) fn reached_in_order(
     }
     Ok(worst)
 }
+
+/// `f` on every item on two threads (the CI machine's cores), the results in order.
+pub(crate) fn on_two_threads<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<std::sync::Mutex<Option<R>>> = items.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(item) = items.get(k) else { break };
+                    let r = f(item);
+                    *results[k].lock().expect("a result slot") = Some(r);
+                }
+            });
+        }
+    });
+    results.into_iter().map(|m| m.into_inner().expect("a result slot").expect("every item done")).collect()
+}
