@@ -25,7 +25,8 @@ pub(crate) enum Word {
     Tldata,
     Cutter,
     Toolno,
-    /// `TURRET/n,OSETNO,h,…`: a lathe turret index, i.e. a tool change.
+    /// `TURRET/n,OSETNO,h,…`: a lathe turret index, i.e. a tool change of a turning program
+    /// (an error: `cl::turning`).
     Turret,
     Spindl,
     Coolnt,

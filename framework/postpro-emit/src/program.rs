@@ -1060,7 +1060,9 @@ impl<'a> Formatter<'a> {
             }
             BlockKind::Stop(text) => {
                 let n = self.n();
-                self.push(Block::Stop { n, text: text.clone() });
+                // The operator message is a comment: `STOP/(TURN THE PART)` must not nest one.
+                let text = text.as_deref().map(|t| clean_comment(self.dialect, t));
+                self.push(Block::Stop { n, text });
             }
             BlockKind::OptionalStop => {
                 let n = self.n();

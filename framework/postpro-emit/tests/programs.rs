@@ -449,3 +449,42 @@ fn a_feed_out_of_range_is_limited_and_noted() {
     assert!(text.contains(note), "{text}");
     assert_eq!(text.matches("F10000").count(), 1, "the F word once, modal: {text}");
 }
+
+/// The program of a solved tool path in mode G1 for dialect `d`, in mm, without prediction.
+fn g1_program(
+    path: &ToolPath,
+    solved: &postpro_kin::Solved,
+    m: &Machine,
+    d: &postpro_emit::Dialect,
+    source: &str,
+) -> String {
+    let kin = solver_for(m);
+    let options = Options {
+        units: postpro_machine::model::ProgramUnits::Mm,
+        program_name: "T".into(),
+        source_name: source.into(),
+        block_numbers: false,
+        prediction: None,
+        annotations: Vec::new(),
+    };
+    let p = build(&motion(path, solved, kin.as_ref(), d, Mode::G1), m, d, &options).expect("builds");
+    render(&p, d.name, builtin_template(d.name).expect("template")).expect("renders")
+}
+
+/// A stop's operator message is a comment of the dialect: parentheses in the CL text
+/// (`STOP/(INSTALL TEST STRIP)`, CATIA) do not nest a comment, which LinuxCNC refuses.
+#[test]
+fn a_stop_message_stays_one_comment() {
+    let src = postpro_cl::Source::new("stop.cl", "FEDRAT/MMPM,500\nGOTO/0,0,0\nSTOP/(TURN THE PART)\nGOTO/10,0,0\n");
+    let path = read(&src);
+    let m = machine("example-3axis-vmc");
+    let solved = solve(solver_for(&m).as_ref(), &path, &m.policy).expect("solves");
+    for (name, stop) in [
+        ("linuxcnc", "M0 ([TURN THE PART])"),
+        ("fanuc", "M0 ([TURN THE PART])"),
+        ("siemens-840d", "M0 ; (TURN THE PART)"),
+    ] {
+        let text = g1_program(&path, &solved, &m, dialect(name).expect("dialect"), "stop.cl");
+        assert!(text.lines().any(|l| l == stop), "{name}: {text}");
+    }
+}

@@ -217,7 +217,7 @@ impl fmt::Display for Jump {
 pub enum SolveError {
     /// The machine cannot take this tool axis at all.
     #[error("the tool axis ({i:.6}, {j:.6}, {k:.6}) is out of reach of {machine}")]
-    #[diagnostic(code(kin::unreachable), help("a 3- or 4-axis machine cannot tilt the tool this way"))]
+    #[diagnostic(code(kin::unreachable), help("{help}"))]
     Unreachable {
         /// The CL statement.
         #[label("this pose")]
@@ -230,10 +230,12 @@ pub enum SolveError {
         k: f64,
         /// The machine.
         machine: String,
+        /// What can be done.
+        help: String,
     },
     /// Every solution leaves an axis's travel.
     #[error("no solution within the travel of {machine}: {detail}")]
-    #[diagnostic(code(kin::travel), help("move the part on the table (part_origin), or choose another machine"))]
+    #[diagnostic(code(kin::travel), help("{help}"))]
     OutOfTravel {
         /// The CL statement.
         #[label("this pose")]
@@ -242,6 +244,8 @@ pub enum SolveError {
         detail: String,
         /// The machine.
         machine: String,
+        /// What can be done: moving the part helps only where a linear axis leaves its travel.
+        help: String,
     },
     /// No continuous sequence of solutions exists here.
     #[error("no continuous solution ({cause}): {axis} would jump from {from:.3}° to {to:.3}° during a feed move")]
@@ -332,7 +336,25 @@ pub fn choose(
 
     let unreachable = |t: &Target| {
         let a = t.pose.axis;
-        SolveError::Unreachable { span: t.span, i: a.x, j: a.y, k: a.z, machine: machine.name.clone() }
+        let help = if rotary.len() < 2 {
+            "a 3- or 4-axis machine cannot tilt the tool this way".to_string()
+        } else {
+            format!(
+                "the rotary axes of {} cannot point the tool this way: choose another orientation of the part in the CAM system, or another machine",
+                machine.name
+            )
+        };
+        SolveError::Unreachable { span: t.span, i: a.x, j: a.y, k: a.z, machine: machine.name.clone(), help }
+    };
+    // Moving the part on the table brings a linear axis back within its travel, never a rotary one.
+    let travel_help = |axes: &[usize]| {
+        if axes.iter().all(|&i| machine.axes[i].kind == AxisKind::Rotary) {
+            "a rotary axis beyond its travel is not fixed by moving the part: choose another orientation of the part \
+             in the CAM system (a set-up from below is turned over by hand and posted apart), or another machine"
+                .to_string()
+        } else {
+            "move the part on the table (part_origin), or choose another machine".to_string()
+        }
     };
     // The linear axes of a solution within their travels (they do not change with unwinding),
     // or the axis and value that leave it.
@@ -445,12 +467,14 @@ pub fn choose(
             }
         }
         if !layer.iter().any(Node::is_live) {
-            let mut detail: Vec<String> = reasons.into_iter().flatten().map(describe).collect();
+            let reasons: Vec<(usize, f64)> = reasons.into_iter().flatten().collect();
+            let mut detail: Vec<String> = reasons.iter().copied().map(describe).collect();
             detail.dedup();
             return Err(SolveError::OutOfTravel {
                 span: t.span,
                 detail: detail.join("; "),
                 machine: machine.name.clone(),
+                help: travel_help(&reasons.iter().map(|r| r.0).collect::<Vec<_>>()),
             });
         }
         if policy.choice == PathChoice::Greedy {
@@ -538,6 +562,7 @@ pub fn choose(
                 span: t.span,
                 detail: describe(reason),
                 machine: machine.name.clone(),
+                help: travel_help(&[reason.0]),
             })?;
             j[free] = value;
             if after.is_none() && t.rapid {

@@ -1,7 +1,7 @@
 //! Fanuc/Haas G-code, as Siemens NX's own Haas UMC-750 post writes it: block numbers, modal
 //! G0/G1/G2/G3 with incremental I J K centres (or R), G17/G18/G19, G20/G21, G90/G91, B and C
-//! words, G43 H length offsets, G234 tool centre point control, G53 and G28 moves in the
-//! machine frame, G81–G89 and G73 cycles with G98/G99.
+//! words, G43 H length offsets, G234 (Haas) and G43.4/G43.5 (Fanuc) tool centre point control,
+//! G53 and G28 moves in the machine frame, G81–G89 and G73 cycles with G98/G99.
 //!
 //! The program is what lies between the first two `%` lines (NX's Information-window header and
 //! footer are outside them); without a `%` line, the whole text. A line starting with `O` is the
@@ -238,7 +238,13 @@ impl Reader {
                     let register = get('H').map(|h| h.value as u32);
                     self.b.event(line, EventKind::LengthOffset { register, offset: None });
                 }
-                2340 => {
+                // Haas G234 H; Fanuc G43.4 H (joint values) and G43.5 H (I J K tool vectors, which
+                // this model does not keep): the tip in the work frame from here.
+                2340 | 434 | 435 => {
+                    if c != 2340 {
+                        let register = get('H').map(|h| h.value as u32);
+                        self.b.event(line, EventKind::LengthOffset { register, offset: None });
+                    }
                     self.tcp = true;
                     self.b.event(line, EventKind::Tcp { on: true });
                 }

@@ -405,3 +405,21 @@ fn the_peer_cases_are_found() {
     assert_eq!(names, ["0TREF.h", "11.h", "11setup.h"]);
     assert!(basemach.input.ends_with("basemach.apt"));
 }
+
+/// Fanuc's tool centre point control: G43.5 H (and G43.4 H) switch it on with the tool's length
+/// register, as Haas's G234 does; the tool vector's I J K on linear moves are not arc centres.
+#[test]
+fn fanuc_reads_tool_centre_point_control() {
+    let text =
+        "G21 G90 G94 G17\nG54\nT3 M6\nG43.5 H13\nG0 X1 Y2 Z30 I0 J0 K1\nG1 Z-1 I0.1 J0 K0.995 F500\nG49\nG0 Z50\nM30\n";
+    let p = fanuc::read("t", text).unwrap_or_else(|e| panic!("{e}"));
+    let kinds: Vec<&EventKind> = p.events.iter().map(|e| &e.kind).collect();
+    assert!(kinds.contains(&&EventKind::LengthOffset { register: Some(13), offset: None }), "{kinds:?}");
+    assert!(
+        kinds.contains(&&EventKind::Tcp { on: true }) && kinds.contains(&&EventKind::Tcp { on: false }),
+        "{kinds:?}"
+    );
+    let ends: Vec<[f64; 3]> = p.motions.iter().map(|m| m.to).collect();
+    assert_eq!(ends, [[1.0, 2.0, 30.0], [1.0, 2.0, -1.0], [1.0, 2.0, 50.0]]);
+    assert_eq!(p.motions[1].kind, MotionKind::Feed);
+}

@@ -181,6 +181,8 @@ struct Builder<'s, S> {
     feed_unit_conflicts: usize,
     apt_source_statements: usize,
     first_apt_source: Option<Span>,
+    /// A lathe statement was reported (once per file).
+    turning_reported: bool,
 }
 
 impl<'s, S: ItemSink> Builder<'s, S> {
@@ -223,6 +225,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             feed_unit_conflicts: 0,
             apt_source_statements: 0,
             first_apt_source: None,
+            turning_reported: false,
         };
         b.info.cam_system = pre.cam;
         b.info.units = match options.cl_units {
@@ -802,6 +805,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     fn tool(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
         let span = cx.rec.span;
         let args = st.args();
+        self.turning(cx, st);
         let mut number = None;
         let mut adjust = None;
         let mut k = 0;
@@ -836,6 +840,37 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 self.emit(span, ItemKind::ToolChange(ToolChange { number, adjust, name }));
             }
         }
+    }
+
+    /// A lathe's statement (CATIA's `TURRET/n,OSETNO,…` and `TOOLNO/n,TURN,…`): the file is a
+    /// turning program, which a milling machine cannot run. Said once per file, as an error.
+    fn turning(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
+        let what = match st.word {
+            Word::Turret => "TURRET indexes a lathe's turret",
+            Word::Toolno
+                if st.args().iter().any(|a| matches!(a.value, Value::Word(w) if w.eq_ignore_ascii_case("TURN"))) =>
+            {
+                "TOOLNO/…,TURN defines a turning tool"
+            }
+            _ => return,
+        };
+        if std::mem::replace(&mut self.turning_reported, true) {
+            return;
+        }
+        self.diag(
+            Diagnostic::new(
+                Severity::Error,
+                "cl::turning",
+                cx.rec.span,
+                format!("this is a turning program, not a milling one: {what}"),
+                "a lathe statement".into(),
+            )
+            .with_help(
+                "postpro writes programs for milling machines; post this file with a lathe post-processor (its X \
+                 is the radius of a turned part, not a position on a table)",
+            )
+            .with_word(Some(cx.word_name())),
+        );
     }
 
     fn tool_shape(&mut self, cx: &Ctx<'_>, st: &Statement<'_>) {
