@@ -60,8 +60,9 @@ pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
         track.push(piece, i, corner, why);
     }
     // Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
-    // N + 10 is taken into account": the current block and `look_ahead` more.
-    track.finish(machine.cnc.look_ahead.saturating_add(1))
+    // N + 10 is taken into account": the current block and `look_ahead` more — blocks of the
+    // program, not the pieces the prediction cuts an arc or a TCP move into.
+    track.finish_counting(machine.cnc.look_ahead.saturating_add(1), |b| blocks.written.get(b).copied().unwrap_or(true))
 }
 
 /// The caps of block `i`, in programmed time.

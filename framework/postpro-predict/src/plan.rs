@@ -91,6 +91,9 @@ pub struct Track {
     pub junctions: Vec<Junction>,
     /// Pieces the CNC sees ahead, the current one included (`usize::MAX`: all).
     pub window: usize,
+    /// Per piece, the last piece the CNC sees from it, where pieces are not all blocks of the
+    /// program (an arc's pieces are one block); empty: `window` pieces.
+    pub window_end: Vec<usize>,
     /// Dwell before the first piece (s).
     pub dwell_at_start: f64,
 }
@@ -183,9 +186,38 @@ impl TrackBuilder {
         if let Some(last) = self.junctions.last_mut() {
             last.dwell = self.dwell_pending;
         }
-        let track =
-            Track { pieces: self.pieces, junctions: self.junctions, window, dwell_at_start: self.dwell_at_start };
+        let track = Track {
+            pieces: self.pieces,
+            junctions: self.junctions,
+            window,
+            window_end: Vec::new(),
+            dwell_at_start: self.dwell_at_start,
+        };
         (track, self.owner)
+    }
+
+    /// [`TrackBuilder::finish`] with a window of `window` blocks of the program: a piece counts
+    /// when `counts(its block)` (a point within an arc block, or a TCP program's linearization
+    /// point, is no block of the program).
+    pub fn finish_counting(self, window: usize, counts: impl Fn(usize) -> bool) -> (Track, Vec<usize>) {
+        let (mut track, owner) = self.finish(window);
+        if window == usize::MAX || owner.iter().all(|&b| counts(b)) {
+            return (track, owner);
+        }
+        // A piece that does not count belongs to the block of the next one that does: the window
+        // from piece k ends at the `window`-th counted piece from k on (or at the end).
+        let n = owner.len();
+        let counted: Vec<usize> = (0..n).filter(|&k| counts(owner[k])).collect();
+        let mut next = 0; // the first counted piece at or after k
+        let mut ends = Vec::with_capacity(n);
+        for k in 0..n {
+            while next < counted.len() && counted[next] < k {
+                next += 1;
+            }
+            ends.push(counted.get(next + window - 1).copied().unwrap_or(n - 1));
+        }
+        track.window_end = ends;
+        (track, owner)
     }
 }
 
@@ -464,7 +496,11 @@ impl Stepper<'_> {
         // Junctions ahead, within the window and within braking reach.
         let pieces = &self.track.pieces;
         let n = pieces.len();
-        let last = if self.track.window == usize::MAX { n - 1 } else { (self.k + self.track.window - 1).min(n - 1) };
+        let last = match self.track.window_end.get(self.k) {
+            Some(&end) => end,
+            None if self.track.window == usize::MAX => n - 1,
+            None => (self.k + self.track.window - 1).min(n - 1),
+        };
         let (mut u1, mut v1, mut a1) = advance(u, v, a, j, h);
         // The limits of the pieces up to junction m: the braking happens on them. The piece after
         // the junction only asks that the acceleration be within its own when the motion gets
@@ -743,6 +779,7 @@ mod tests {
             pieces: vec![piece(length, v, a, j)],
             junctions: vec![Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 }],
             window: 10,
+            window_end: Vec::new(),
             dwell_at_start: 0.0,
         };
         let mut r = Record(Vec::new());
@@ -810,9 +847,14 @@ mod tests {
         let mut junctions = vec![Junction { cap: f64::INFINITY, limit: Limit::Corner, dwell: 0.0 }; 200];
         junctions[99] = corner;
         junctions[199] = stop;
-        let wide =
-            Track { pieces: pieces.clone(), junctions: junctions.clone(), window: usize::MAX, dwell_at_start: 0.0 };
-        let narrow = Track { pieces, junctions, window: 5, dwell_at_start: 0.0 };
+        let wide = Track {
+            pieces: pieces.clone(),
+            junctions: junctions.clone(),
+            window: usize::MAX,
+            window_end: Vec::new(),
+            dwell_at_start: 0.0,
+        };
+        let narrow = Track { pieces, junctions, window: 5, window_end: Vec::new(), dwell_at_start: 0.0 };
         let mut crossing_speed = Vec::new();
         struct Crossings<'a>(&'a mut Vec<(usize, f64)>);
         impl Observer for Crossings<'_> {

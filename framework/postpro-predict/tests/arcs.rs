@@ -124,12 +124,10 @@ fn a_circle_above_the_closed_form_is_held_at_it_by_the_curvature() {
 
 /// The block-wise model (papers 000/001) plans over the current block and the machine's
 /// `look_ahead` more; an arc written as one G2/G3 block is one block of the CNC, whatever the
-/// pieces the prediction cuts it into. On the jerk-bound circle above, the look-ahead counts the
-/// pieces (0.9 mm each, 11 of them): the motion must be able to stop within 10 mm, and the
-/// predicted feed falls 7 % under the closed form (4420 against 4762 mm/min), the look-ahead
-/// named. Reported (issue 12's tests); ignored until the model counts NC blocks.
+/// pieces the prediction cuts it into. Were the pieces counted (0.9 mm each), the motion would
+/// have to be able to stop within 10 mm on the jerk-bound circle above, and the predicted feed
+/// would fall 7 % under the closed form (4420 against 4762 mm/min), the look-ahead named.
 #[test]
-#[ignore = "product bug: the inverse-time look-ahead counts the pieces of an arc block as NC blocks"]
 fn the_look_ahead_sees_a_whole_arc_block() {
     held_at_the_closed_form(&soft_vmc(), "jerk", Planner::InverseTime).unwrap();
 }
