@@ -27,6 +27,7 @@ fn bench(c: &mut Criterion) {
             source_name: "big.cl".into(),
             block_numbers: false,
             tcp_orientation: Default::default(),
+            insert_verbatim: false,
             prediction: None,
             annotations: Vec::new(),
         };

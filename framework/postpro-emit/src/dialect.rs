@@ -89,6 +89,9 @@ pub struct Dialect {
     pub work_offsets: WorkOffsets,
     /// Its working planes for 3+2 set-ups (`G68.2`, `G254`, `CYCLE800`, `PLANE`), if any.
     pub planes: Option<PlaneKind>,
+    /// F per minute in an inch program is in inches per minute times this (Heidenhain: 10, its
+    /// F being in 1/10 in/min in `INCH` programs).
+    pub inch_feed_scale: f64,
 }
 
 /// Which work offsets a dialect selects.
@@ -189,6 +192,7 @@ pub const DIALECTS: &[Dialect] = &[
         machine_retract_cancels_length: true,
         work_offsets: WorkOffsets::Siemens,
         planes: Some(PlaneKind::Tilted),
+        inch_feed_scale: 1.0,
     },
     Dialect {
         name: "fanuc",
@@ -208,6 +212,7 @@ pub const DIALECTS: &[Dialect] = &[
         machine_retract_cancels_length: false,
         work_offsets: WorkOffsets::Fanuc,
         planes: Some(PlaneKind::Tilted),
+        inch_feed_scale: 1.0,
     },
     Dialect {
         name: "haas",
@@ -227,6 +232,7 @@ pub const DIALECTS: &[Dialect] = &[
         machine_retract_cancels_length: false,
         work_offsets: WorkOffsets::Haas,
         planes: Some(PlaneKind::Dynamic),
+        inch_feed_scale: 1.0,
     },
     Dialect {
         name: "heidenhain",
@@ -246,6 +252,7 @@ pub const DIALECTS: &[Dialect] = &[
         machine_retract_cancels_length: false,
         work_offsets: WorkOffsets::Heidenhain,
         planes: Some(PlaneKind::Tilted),
+        inch_feed_scale: 10.0,
     },
     Dialect {
         name: "linuxcnc",
@@ -265,6 +272,7 @@ pub const DIALECTS: &[Dialect] = &[
         machine_retract_cancels_length: false,
         work_offsets: WorkOffsets::LinuxCnc,
         planes: None,
+        inch_feed_scale: 1.0,
     },
 ];
 

@@ -29,6 +29,10 @@ pub struct Options {
     pub block_numbers: bool,
     /// How TCP mode gives the tool's orientation: the rotary axes' angles or the tool vector.
     pub tcp_orientation: TcpOrientation,
+    /// CL `INSERT` text as blocks of the program (`--insert verbatim`); else as comments, since
+    /// CAM systems write descriptions there (SOLIDWORKS CAM: the holder, the stock size) that no
+    /// controller reads, or reads as axis words.
+    pub insert_verbatim: bool,
     /// The prediction summary for the header (`header.prediction`); `None` without prediction.
     pub prediction: Option<Prediction>,
     /// Comments to write before the motion of given steps (a predicted slowdown, its cause),
@@ -835,6 +839,11 @@ impl<'a> Formatter<'a> {
         }
     }
 
+    /// The factor of F per minute in an inch program: Heidenhain takes it in 1/10 in/min.
+    fn inch_feed_scale(&self) -> f64 {
+        if self.options.units == ProgramUnits::Inch { self.dialect.inch_feed_scale } else { 1.0 }
+    }
+
     /// What a tilted working plane takes from axis `i`'s values (mm): the value of its zero.
     fn shift(&self, i: usize) -> f64 {
         match &self.plane {
@@ -944,7 +953,9 @@ impl<'a> Formatter<'a> {
     fn feed(&mut self, feed: FeedWord, note: Option<&str>, always: bool) -> (Option<String>, Option<String>) {
         let (mode, value, decimals) = match feed {
             FeedWord::InverseTime(f) => ("inverse-time", f, self.dialect.feed_decimals.max(3)),
-            FeedWord::PerMinute(f) => ("per-minute", f / self.unit, self.dialect.feed_decimals),
+            FeedWord::PerMinute(f) => {
+                ("per-minute", f / self.unit * self.inch_feed_scale(), self.dialect.feed_decimals)
+            }
             FeedWord::PerRevolution(f) => ("per-revolution", f / self.unit, self.dialect.feed_decimals.max(4)),
         };
         self.set_feed_mode(mode);
@@ -967,10 +978,11 @@ impl<'a> Formatter<'a> {
     fn kind(&mut self, kind: &BlockKind) {
         match kind {
             BlockKind::Comment(text) => self.comment(text),
-            BlockKind::Insert(text) => {
+            BlockKind::Insert(text) if self.options.insert_verbatim => {
                 let n = self.n();
                 self.push(Block::Insert { n, text: text.clone() });
             }
+            BlockKind::Insert(text) => self.comment(&format!("INSERT {}", text.trim())),
             BlockKind::Operation(name) if !name.is_empty() => self.comment(&format!("operation: {name}")),
             BlockKind::Operation(_) => {}
             BlockKind::WorkOffset(offset) => match self.dialect.work_offset(offset) {
@@ -1107,8 +1119,14 @@ impl<'a> Formatter<'a> {
         self.written.iter_mut().for_each(|w| *w = None);
         // The plane's axes as columns: the rotation from the plane's frame to the part's.
         let m = plane.rotation().transpose();
-        let degrees = |v: f64| crate::format::number(v.to_degrees(), 4, self.dialect.explicit_plus);
-        let unit = |v: f64| crate::format::number(v, 7, self.dialect.explicit_plus);
+        // Trimmed: a plane's axis is often a machine axis (`BX+1 BY+0`).
+        let plus = self.dialect.explicit_plus;
+        let trimmed = |v: f64, decimals: usize| {
+            let text = crate::format::number_trimmed(v, decimals);
+            if plus && !text.starts_with('-') { format!("+{text}") } else { text }
+        };
+        let degrees = |v: f64| trimmed(v.to_degrees(), 4);
+        let unit = |v: f64| trimmed(v, 7);
         let zxz = euler_zxz(&m).map(degrees);
         let xyz = euler_xyz(&m).map(degrees);
         let column = |c: usize| [m[(0, c)], m[(1, c)], m[(2, c)]].map(unit);

@@ -40,6 +40,7 @@ impl Options {
             source_name: self.source_name.clone(),
             block_numbers: self.block_numbers,
             tcp_orientation: Default::default(),
+            insert_verbatim: false,
             prediction: self.prediction.clone(),
             annotations: self.annotations.clone(),
         }

@@ -46,6 +46,7 @@ fn program(relative: &str, machine_name: &str, mode: Mode, dialect_name: Option<
         source_name: relative.into(),
         block_numbers: false,
         tcp_orientation: Default::default(),
+        insert_verbatim: false,
         prediction: None,
         annotations: Vec::new(),
     };
@@ -268,6 +269,7 @@ fn unsupported_modes_are_errors() {
         source_name: "t".into(),
         block_numbers: false,
         tcp_orientation: Default::default(),
+        insert_verbatim: false,
         prediction: None,
         annotations: Vec::new(),
     };
@@ -301,6 +303,7 @@ fn streaming_equals_the_whole_rendering() {
                         source_name: "t.cl".into(),
                         block_numbers,
                         tcp_orientation: Default::default(),
+                        insert_verbatim: false,
                         prediction: None,
                         annotations: Vec::new(),
                     };
@@ -400,6 +403,7 @@ fn user_templates_are_strict_and_lines_are_bounded() {
         source_name: "t".into(),
         block_numbers: false,
         tcp_orientation: Default::default(),
+        insert_verbatim: false,
         prediction: None,
         annotations: Vec::new(),
     };
@@ -435,6 +439,7 @@ fn a_feed_out_of_range_is_limited_and_noted() {
         source_name: "fast.cl".into(),
         block_numbers: false,
         tcp_orientation: Default::default(),
+        insert_verbatim: false,
         prediction: None,
         annotations: Vec::new(),
     };
@@ -464,6 +469,8 @@ fn g1_program(
         program_name: "T".into(),
         source_name: source.into(),
         block_numbers: false,
+        tcp_orientation: Default::default(),
+        insert_verbatim: false,
         prediction: None,
         annotations: Vec::new(),
     };

@@ -52,6 +52,10 @@ pub(crate) struct EmitArgs {
     /// the part, or as axis values (`joints`).
     #[arg(long, value_enum, default_value_t = PlaneModeArg::Cycle)]
     plane_mode: PlaneModeArg,
+    /// CL `INSERT` text as comments (`comment`: CAM systems write descriptions there that no
+    /// controller reads), or as blocks of the program, as is (`verbatim`).
+    #[arg(long, value_enum, default_value_t = InsertArg::Comment)]
+    insert: InsertArg,
     /// CL arcs as circular interpolation wherever they are circles of the program's frame
     /// (`native`), or always as straight moves within the tolerance (`linear`).
     #[arg(long, value_enum, default_value_t = ArcsArg::Native)]
@@ -97,6 +101,13 @@ pub(crate) enum CyclesArg {
 pub(crate) enum TcpOrientationArg {
     Angles,
     Vectors,
+}
+
+/// `--insert`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum InsertArg {
+    Comment,
+    Verbatim,
 }
 
 /// `--plane-mode`.
@@ -238,6 +249,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             planes: args.plane_mode == PlaneModeArg::Cycle,
         },
         tcp_orientation,
+        insert_verbatim: args.insert == InsertArg::Verbatim,
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
     };
     write_job(&job, &writing, &stage)
@@ -261,6 +273,8 @@ pub(crate) struct Writing<'a> {
     pub(crate) shapes: crate::job::Shapes,
     /// How TCP mode gives the tool's orientation.
     pub(crate) tcp_orientation: postpro_emit::TcpOrientation,
+    /// CL `INSERT` text as blocks (else as comments).
+    pub(crate) insert_verbatim: bool,
     /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
     pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
 }
@@ -300,6 +314,7 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
         source_name: source.name().to_string(),
         block_numbers: how.block_numbers,
         tcp_orientation: how.tcp_orientation,
+        insert_verbatim: how.insert_verbatim,
         prediction,
         annotations,
     };
@@ -319,6 +334,20 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
             e => report::render(&e),
         };
         return fail(&message, 1);
+    }
+    let inserts: Vec<&postpro_cl::Item> = job
+        .path
+        .items
+        .iter()
+        .filter(|i| matches!(i.kind, postpro_cl::ItemKind::Text(postpro_cl::TextKind::Insert, _)))
+        .collect();
+    if let (false, Some(first)) = (how.insert_verbatim, inserts.first()) {
+        eprintln!(
+            "note: {} INSERT text(s) written as comments (first at {}); `--insert verbatim` passes them to the \
+             controller as blocks",
+            inserts.len(),
+            source.location(first.span.start as usize)
+        );
     }
     if output != Path::new("-") {
         eprintln!(

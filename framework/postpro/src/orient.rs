@@ -300,6 +300,7 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             block_numbers: false,
             shapes: crate::job::Shapes { planes: true, ..crate::job::Shapes::default() },
             tcp_orientation: postpro_emit::TcpOrientation::Angles,
+            insert_verbatim: false,
             prediction: Some((&args.prediction, &args.marks)),
         };
         return write_job(&oriented, &writing, &|_| {});

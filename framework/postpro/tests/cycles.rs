@@ -22,7 +22,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use common::backsim::{self, Cl};
-use postpro_cl::{CamSystem, ItemKind, ReadOptions, TextKind};
+use postpro_cl::{CamSystem, ItemKind, ReadOptions};
 use tests::golden::{fanuc, heidenhain};
 use tests::nc::{EventKind, Motion, Program, Units};
 
@@ -233,7 +233,7 @@ fn hole_events(program: &Program, holes: &[Hole]) -> Result<(), String> {
 fn siemens_holes(python: &Path, written: &backsim::Written, holes: &[Hole], axes: &str) -> Result<(), String> {
     let rows = backsim::siemens_rows(python, &written.path, axes)?;
     let lines: Vec<&str> = written.text.lines().collect();
-    let scale = if lines.iter().any(|l| l.split_whitespace().any(|w| w == "G70")) { 25.4 } else { 1.0 };
+    let scale = if lines.iter().any(|l| l.split_whitespace().any(|w| w == "G700")) { 25.4 } else { 1.0 };
     let mut cycle: Option<Vec<Option<f64>>> = None;
     let mut found = Vec::new();
     for (i, line) in lines.iter().enumerate() {
@@ -281,30 +281,10 @@ fn siemens_holes(python: &Path, written: &backsim::Written, holes: &[Hole], axes
 
 /// The program with each line that is a CL `INSERT` text as a comment (`(…)` or `; …`).
 ///
-/// SOLIDWORKS CAM writes tool descriptions and the stock size with `INSERT`
-/// (`INSERT/[HOLDER=C40-32ERP412] 10.0mm JOBBER DRILL`, `INSERT/Stock Size X85. Y38. Z48.`);
-/// the Fanuc and Siemens templates write the text as is, which no controller reads (the LinuxCNC
-/// and Heidenhain ones make it a comment): reported, and pinned by
-/// `insert_text_is_never_a_block_a_controller_cannot_read`. Commented out here so that the
-/// cycles can be read.
-fn with_inserts_as_comments(text: &str, cl: &Cl, dialect: &str) -> String {
-    let inserts: BTreeSet<&str> = cl
-        .path
-        .items
-        .iter()
-        .filter_map(|i| match &i.kind {
-            ItemKind::Text(TextKind::Insert, text) => Some(text.trim()),
-            _ => None,
-        })
-        .collect();
-    text.lines()
-        .map(|line| match (inserts.contains(line.trim()), dialect) {
-            (true, "fanuc") => format!("({})\n", line.replace(['(', ')'], "")),
-            (true, _) => format!("; {line}\n"),
-            (false, _) => format!("{line}\n"),
-        })
-        .collect()
-}
+/// The 3+2 set-ups in the work offset's frame (axis values), where the hole axis is the
+/// machine's Z: the holes are compared with the solved axis values. The tilted working planes
+/// are checked by their own tests.
+const JOINTS: &[&str] = &["--plane-mode", "joints"];
 
 /// The linear and rotary axis letters of a machine, for siemens.py.
 fn axis_letters(machine: &str) -> String {
@@ -392,10 +372,9 @@ fn fanuc_and_heidenhain_drill_every_hole_to_its_depth() {
         [("fanuc", fanuc::read as fn(&str, &str) -> _), ("heidenhain", heidenhain::read)]
             .into_iter()
             .map(|(dialect, reader)| {
-                let result = backsim::write("cycles", &case.path, case.machine, dialect, &[]).and_then(|w| {
-                    let text = with_inserts_as_comments(&w.text, &case.cl, dialect);
+                let result = backsim::write("cycles", &case.path, case.machine, dialect, JOINTS).and_then(|w| {
                     let program =
-                        reader(&w.path.to_string_lossy(), &text).map_err(|e| e.to_string())?.in_units(Units::Mm);
+                        reader(&w.path.to_string_lossy(), &w.text).map_err(|e| e.to_string())?.in_units(Units::Mm);
                     hole_events(&program, &case.holes)?;
                     drills(&program.motions, &case.holes).map(|n| format!("{n} holes drilled"))
                 });
@@ -411,9 +390,7 @@ fn fanuc_and_heidenhain_drill_every_hole_to_its_depth() {
 fn siemens_calls_every_hole_with_its_depth() {
     let Some(python) = backsim::nc_python() else { return };
     every_case(|case| {
-        let result = backsim::write("cycles", &case.path, case.machine, "siemens-840d", &[]).and_then(|mut w| {
-            w.text = with_inserts_as_comments(&w.text, &case.cl, "siemens-840d");
-            std::fs::write(&w.path, &w.text).map_err(|e| e.to_string())?;
+        let result = backsim::write("cycles", &case.path, case.machine, "siemens-840d", JOINTS).and_then(|w| {
             siemens_holes(&python, &w, &case.holes, &axis_letters(case.machine))
                 .map(|()| format!("{} holes called", case.holes.len()))
         });
@@ -423,17 +400,20 @@ fn siemens_calls_every_hole_with_its_depth() {
 
 /// SOLIDWORKS CAM writes tool descriptions and the stock size with `INSERT`
 /// (`INSERT/[HOLDER=C40-32ERP412] 10.0mm JOBBER DRILL`, `INSERT/Stock Size X463.939 Y500 Z6.`).
-/// The LinuxCNC and Heidenhain programs make them comments; the Fanuc and Siemens templates
-/// write the text as a block of its own, which a controller rejects (nc-gcode-interpreter: "Parse
-/// error" on that line; the Fanuc reader: "expected a word (letter and number), found `[`"), or
-/// worse, reads as words (`X463.939 Y500 Z6.`). Reported (issue 12's tests); ignored until the
-/// templates decide what `INSERT` is per CAM system.
+/// Written as blocks, a controller rejects them (nc-gcode-interpreter: "Parse error" on that line;
+/// the Fanuc reader: "expected a word (letter and number), found `[`"), or worse, reads them as
+/// words (`X463.939 Y500 Z6.`): by default every dialect writes `INSERT` text as a comment
+/// (`--insert verbatim` passes it as is), and says so on stderr.
 #[test]
-#[ignore = "product bug: the Fanuc and Siemens templates write SOLIDWORKS CAM's INSERT text as a block"]
 fn insert_text_is_never_a_block_a_controller_cannot_read() {
     let path = data().join("cl/aamorim1913__AptPostProcessor__manufacture3-top.apt");
     let written = backsim::write("cycles", &path, "example-3axis-vmc", "fanuc", &[]).unwrap_or_else(|e| panic!("{e}"));
     fanuc::read(&written.path.to_string_lossy(), &written.text).unwrap_or_else(|e| panic!("{e}"));
+    assert!(written.text.contains("(INSERT Stock Size X463.939 Y500 Z6.)"), "{}", written.text);
+    assert!(written.stderr.contains("INSERT text(s) written as comments"), "{}", written.stderr);
+    let verbatim = backsim::write("cycles", &path, "example-3axis-vmc", "fanuc", &["--insert", "verbatim"])
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(verbatim.text.lines().any(|l| l == "Stock Size X463.939 Y500 Z6."), "{}", verbatim.text);
     if let Some(python) = backsim::nc_python() {
         let written =
             backsim::write("cycles", &path, "example-3axis-vmc", "siemens-840d", &[]).unwrap_or_else(|e| panic!("{e}"));

@@ -399,7 +399,7 @@ fn check_program(program: &str, cycle_time: f64, cl: &str) -> Vec<Block> {
     let lines: Vec<&str> = program.lines().collect();
     assert_eq!(lines[0], "; HYPAR-3PLUS2: hypar-3plus2.cl on mikron-ucp710, mode g1", "{program}");
     assert!(lines.contains(&"; axes: X Y Z A C"), "{program}");
-    assert!(lines.contains(&"G90 G17 G71 G94 G64"), "a Siemens program: {program}");
+    assert!(lines.contains(&"G90 G17 G710 G94 G64"), "a Siemens program: {program}");
     assert_eq!(lines.last(), Some(&"M30"), "a Siemens program ends with M30");
     let predicted = lines.iter().find(|l| l.starts_with("; predicted cycle time: ")).expect("the prediction header");
     assert!(

@@ -171,7 +171,7 @@ fn err_set_up_and_tool_table_files() {
 fn tcp_mode_writes_each_tools_length_register() {
     let mut pinned = String::new();
     for (machine, selects) in [
-        ("maho600e", ["G43.5 H11", "G43.5 H12", "G43.5 H13"]),
+        ("maho600e", ["G43.4 H11", "G43.4 H12", "G43.4 H13"]),
         ("mikron-ucp710", ["TRAORI D11", "TRAORI D12", "TRAORI D13"]),
         ("example-table-table-trunnion", ["TOOL CALL 1 Z", "TOOL CALL 2 Z", "TOOL CALL 3 Z"]),
     ] {
