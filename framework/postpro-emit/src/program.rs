@@ -58,6 +58,9 @@ pub struct Annotation {
     pub step: usize,
     /// The comment text (without the dialect's comment characters).
     pub text: String,
+    /// The number of the slowdown it marks (`slowdown #<number>`), if it marks one: the header's
+    /// worst slowdowns give the NC line of that comment.
+    pub slowdown: Option<usize>,
 }
 
 /// The whole template context.
@@ -162,6 +165,11 @@ pub struct MarkedSlowdown {
     pub step: usize,
     /// The CL file's line of that step (1-based).
     pub line: usize,
+    /// The program's line (1-based) of the comment `slowdown #<number>`: filled in by
+    /// `write_program` and `render` before they write the header; none where no such comment is.
+    pub nc_line: Option<usize>,
+    /// The block number that line starts with (`N120 …`, Heidenhain's `2031 ; …`), if any.
+    pub nc_block: Option<u64>,
     /// Time lost (s), exact stops aside.
     pub time_lost: f64,
     /// What the comment says after `slowdown #<number>: ` (`38% of F over 12 blocks, C jerk,
@@ -276,6 +284,8 @@ pub enum Block {
         n: Option<u32>,
         /// The text, cleaned of characters the dialect cannot hold in a comment.
         text: String,
+        /// The number of the slowdown this comment marks (`slowdown #<number>: …`), if any.
+        slowdown: Option<usize>,
     },
     /// Text passed to the program as is (`INSERT`).
     Insert {
@@ -773,6 +783,11 @@ impl<'a> Formatter<'a> {
     }
 
     fn comment(&mut self, text: &str) {
+        self.comment_of(text, None);
+    }
+
+    /// A comment, marking slowdown `slowdown` if given.
+    fn comment_of(&mut self, text: &str, slowdown: Option<usize>) {
         let mut clean = clean_comment(self.dialect, text);
         let room = self
             .dialect
@@ -783,7 +798,7 @@ impl<'a> Formatter<'a> {
             clean.truncate(cut);
         }
         let n = self.n();
-        self.push(Block::Comment { n, text: clean.trim_end().to_string() });
+        self.push(Block::Comment { n, text: clean.trim_end().to_string(), slowdown });
     }
 
     /// The annotations of the steps up to `k` not yet written, as positions in `notes`.
@@ -799,7 +814,7 @@ impl<'a> Formatter<'a> {
     fn note(&mut self, at: usize) {
         let options = self.options;
         if let Some(a) = self.notes.get(at).and_then(|&i| options.annotations.get(i)) {
-            self.comment(&a.text);
+            self.comment_of(&a.text, a.slowdown);
         }
     }
 

@@ -9,7 +9,9 @@ use postpro_machine::model::Machine;
 
 use crate::EmitError;
 use crate::dialect::Dialect;
-use crate::program::{Block, BlockSink, Options, Program, Word, build, build_blocks, check_mode, header, tools};
+use crate::program::{
+    Block, BlockSink, Header, Options, Program, Word, build, build_blocks, check_mode, header, tools,
+};
 
 /// The built-in templates, by dialect name.
 pub const TEMPLATES: &[(&str, &str)] = &[
@@ -25,16 +27,60 @@ pub fn builtin_template(dialect: &str) -> Option<&'static str> {
     TEMPLATES.iter().find(|(d, _)| *d == dialect).map(|(_, t)| *t)
 }
 
-/// Renders `program` with the template `source` (named `name` in errors).
+/// Renders `program` with the template `source` (named `name` in errors). Where the header lists
+/// worst slowdowns, the program is rendered once with their comments marked to find their lines
+/// ([`MarkedSlowdown::nc_line`](crate::MarkedSlowdown::nc_line)), then again with them.
 pub fn render(program: &Program, name: &str, source: &str) -> Result<String, EmitError> {
+    let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
     env.set_keep_trailing_newline(true);
-    env.add_template(name, source)
-        .map_err(|e| EmitError::Template { name: name.to_string(), message: describe(&e) })?;
-    let template =
-        env.get_template(name).map_err(|e| EmitError::Template { name: name.to_string(), message: describe(&e) })?;
-    template.render(program).map_err(|e| EmitError::Template { name: name.to_string(), message: describe(&e) })
+    env.add_template(name, source).map_err(err)?;
+    let template = env.get_template(name).map_err(err)?;
+    if program.header.prediction.as_ref().is_none_or(|p| p.worst.is_empty()) {
+        return template.render(program).map_err(err);
+    }
+    let mut marked = program.clone();
+    for block in &mut marked.blocks {
+        if let Block::Comment { text, slowdown: Some(number), .. } = block {
+            *text = format!("{MARK}{number}{MARK}{text}");
+        }
+    }
+    let first_pass = template.render(&marked).map_err(err)?;
+    let mut lines = HashMap::new();
+    for (k, line) in first_pass.lines().enumerate() {
+        let number = line.split(MARK).nth(1).and_then(|n| n.parse::<usize>().ok());
+        if let Some(number) = number {
+            lines.entry(number).or_insert((k + 1, block_number(line)));
+        }
+    }
+    drop(first_pass);
+    let mut header = program.header.clone();
+    set_nc_lines(&mut header, |number| lines.get(&number).copied());
+    let context = minijinja::context! {
+        header => Value::from_serialize(&header),
+        tools => Value::from_serialize(&program.tools),
+        blocks => Value::from_serialize(&program.blocks),
+    };
+    template.render(context).map_err(err)
+}
+
+/// Fills in the NC line and block number of each worst slowdown of `header` (none where `line_of`
+/// has none).
+fn set_nc_lines(header: &mut Header, line_of: impl Fn(usize) -> Option<(usize, Option<u64>)>) {
+    if let Some(prediction) = header.prediction.as_mut() {
+        for m in &mut prediction.worst {
+            (m.nc_line, m.nc_block) = line_of(m.number).map_or((None, None), |(line, block)| (Some(line), block));
+        }
+    }
+}
+
+/// The block number a line starts with: `N120 …` or Heidenhain's `2031 ; …`.
+fn block_number(line: &str) -> Option<u64> {
+    let rest = line.trim_start();
+    let rest = rest.strip_prefix('N').unwrap_or(rest);
+    let digits = rest.find(|c: char| !c.is_ascii_digit()).unwrap_or(rest.len());
+    rest[..digits].parse().ok()
 }
 
 /// minijinja's error with its template line and the chain of causes.
@@ -75,17 +121,13 @@ pub fn write_program(
     env.set_keep_trailing_newline(true);
     env.add_template(name, source).map_err(err)?;
     let template = env.get_template(name).map_err(err)?;
-    let header = header(motion, machine, dialect, options)?;
+    let mut header = header(motion, machine, dialect, options)?;
     let tools = tools(motion, dialect, options.units);
-    let context = minijinja::context! {
-        header => Value::from_serialize(&header),
-        tools => Value::from_serialize(&tools),
-        blocks => Value::from(Vec::<Value>::new()),
-    };
     // Rendering with no blocks yields the state whose macros are called below.
-    let captured = template.render_captured(&context).map_err(err)?;
-    let state = captured.state();
-    let streamable = ["program_start", "block", "program_end"].iter().all(|m| state.lookup(m).is_some());
+    let captured = template
+        .render_captured(minijinja::context! { header => Value::from_serialize(&header), tools, blocks => Value::from(Vec::<Value>::new()) })
+        .map_err(err)?;
+    let streamable = ["program_start", "block", "program_end"].iter().all(|m| captured.state().lookup(m).is_some());
     if !streamable {
         let program = build(motion, machine, dialect, options)?;
         let text = render(&program, name, source)?;
@@ -94,14 +136,54 @@ pub fn write_program(
         }
         return out.write_all(text.as_bytes()).map_err(io_error);
     }
+    let worst = header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty());
+    if worst {
+        // A first pass, written nowhere, finds the lines of the worst slowdowns' comments.
+        let counted = stream(&captured, name, motion, machine, dialect, options, &mut std::io::sink())?;
+        set_nc_lines(&mut header, |number| counted.get(&number).copied());
+    }
+    let captured = if worst {
+        template
+            .render_captured(minijinja::context! { header => Value::from_serialize(&header), tools, blocks => Value::from(Vec::<Value>::new()) })
+            .map_err(err)?
+    } else {
+        captured
+    };
+    stream(&captured, name, motion, machine, dialect, options, out).map(drop)
+}
+
+/// Writes the program with the template's streaming macros; returns the line (1-based) and block
+/// number of each slowdown's comment, by slowdown number.
+fn stream(
+    captured: &minijinja::Captured<'_>,
+    name: &str,
+    motion: &postpro_motion::Program,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+    out: &mut dyn Write,
+) -> Result<HashMap<usize, (usize, Option<u64>)>, EmitError> {
+    let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
+    let state = captured.state();
     let start = state.call_macro("program_start", &[]).map_err(err)?;
     start.lines().try_for_each(|l| check_length(l, dialect))?;
     out.write_all(start.as_bytes()).map_err(io_error)?;
-    let mut sink = Streaming { state, name, dialect, out, shapes: HashMap::new(), line: String::with_capacity(128) };
+    let mut sink = Streaming {
+        state,
+        name,
+        dialect,
+        out,
+        shapes: HashMap::new(),
+        line: String::with_capacity(128),
+        lines: start.matches('\n').count(),
+        slowdowns: HashMap::new(),
+    };
     build_blocks(motion, machine, dialect, options, &mut sink)?;
+    let slowdowns = std::mem::take(&mut sink.slowdowns);
     let end = state.call_macro("program_end", &[]).map_err(err)?;
     end.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(end.as_bytes()).map_err(io_error)
+    out.write_all(end.as_bytes()).map_err(io_error)?;
+    Ok(slowdowns)
 }
 
 fn io_error(e: std::io::Error) -> EmitError {
@@ -135,6 +217,10 @@ struct Streaming<'s, 'env, 'o> {
     out: &'o mut dyn Write,
     shapes: HashMap<String, Shape>,
     line: String,
+    /// Lines written so far.
+    lines: usize,
+    /// The line (1-based) and block number of each slowdown comment written, by slowdown number.
+    slowdowns: HashMap<usize, (usize, Option<u64>)>,
 }
 
 const MARK: char = '\u{1}';
@@ -256,7 +342,10 @@ impl BlockSink for Streaming<'_, '_, '_> {
     fn block(&mut self, block: Block) -> Result<(), EmitError> {
         let Some(key) = shape_key(&block) else {
             let text = self.full(&block)?;
-            return write_line(self.out, &text, self.dialect);
+            if let Block::Comment { slowdown: Some(number), .. } = block {
+                self.slowdowns.entry(number).or_insert((self.lines + 1, block_number(&text)));
+            }
+            return write_line(self.out, &mut self.lines, &text, self.dialect);
         };
         if !self.shapes.contains_key(&key) {
             let shape = self.skeleton(&block).map_or(Shape::Full, |s| Shape::Skeleton(s, 0));
@@ -265,7 +354,7 @@ impl BlockSink for Streaming<'_, '_, '_> {
         let mut line = std::mem::take(&mut self.line);
         let result = match self.shapes.get(&key) {
             Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line) => {
-                write_line(self.out, &line, self.dialect)
+                write_line(self.out, &mut self.lines, &line, self.dialect)
             }
             Some(Shape::Skeleton(pieces, checked)) => {
                 // Verify the skeleton against the full rendering; keep it only if they agree.
@@ -273,11 +362,11 @@ impl BlockSink for Streaming<'_, '_, '_> {
                 let agrees = Self::fill(pieces, &block, &mut line) && line == full;
                 let next = if agrees { Shape::Skeleton(pieces.clone(), checked + 1) } else { Shape::Full };
                 self.shapes.insert(key, next);
-                write_line(self.out, &full, self.dialect)
+                write_line(self.out, &mut self.lines, &full, self.dialect)
             }
             _ => {
                 let text = self.full(&block)?;
-                write_line(self.out, &text, self.dialect)
+                write_line(self.out, &mut self.lines, &text, self.dialect)
             }
         };
         self.line = line;
@@ -285,7 +374,9 @@ impl BlockSink for Streaming<'_, '_, '_> {
     }
 }
 
-fn write_line(out: &mut dyn Write, text: &str, dialect: &Dialect) -> Result<(), EmitError> {
+/// Writes `text` and a line break, counting the lines in `lines`.
+fn write_line(out: &mut dyn Write, lines: &mut usize, text: &str, dialect: &Dialect) -> Result<(), EmitError> {
+    *lines += text.matches('\n').count() + 1;
     for line in text.lines() {
         check_length(line, dialect)?;
     }

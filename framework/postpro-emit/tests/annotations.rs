@@ -105,6 +105,8 @@ fn prediction() -> Prediction {
             number: 2,
             step: 7,
             line: 12,
+            nc_line: None,
+            nc_block: None,
             time_lost: 0.42,
             text: "38% of F over 12 blocks, C jerk (A), 0.42 s lost".into(),
         }],
@@ -171,10 +173,14 @@ fn annotations(solved: &Solved) -> Vec<Annotation> {
     assert!(steps[retract].rapid, "the last step is the rapid retract");
     assert!(feed_step < linearized, "the arc comes before the reorientation");
     vec![
-        Annotation { step: feed_step, text: "slowdown one: 62 percent of F on the arc".into() },
-        Annotation { step: linearized, text: "slowdown two: on a linearized point (A limits)".into() },
-        Annotation { step: retract, text: "note three: before the retract".into() },
-        Annotation { step: steps.len() + 3, text: "note four: past the last step".into() },
+        Annotation { step: feed_step, text: "slowdown one: 62 percent of F on the arc".into(), slowdown: None },
+        Annotation {
+            step: linearized,
+            text: "slowdown #2: on a linearized point (A limits)".into(),
+            slowdown: Some(2),
+        },
+        Annotation { step: retract, text: "note three: before the retract".into(), slowdown: None },
+        Annotation { step: steps.len() + 3, text: "note four: past the last step".into(), slowdown: None },
     ]
 }
 
@@ -198,7 +204,38 @@ fn program(f: &Fixture, d: &Dialect, options: &Options) -> String {
     let mut streamed = Vec::new();
     postpro_emit::write_program(&motion, &f.machine, d, &emit, d.name, template, &mut streamed).expect("writes");
     assert!(whole == String::from_utf8(streamed).expect("UTF-8"), "{} {:?}: streamed ≠ whole", d.name, options.mode);
+    if options.prediction.as_ref().is_some_and(|p| !p.worst.is_empty()) {
+        assert_worst_points_at_its_comment(&whole, d, options.mode);
+    }
     whole
+}
+
+/// The header's worst slowdown #2 names the line (or, in Heidenhain, the block) of the comment
+/// `slowdown #2: …`.
+fn assert_worst_points_at_its_comment(program: &str, d: &Dialect, mode: Mode) {
+    let lines: Vec<&str> = program.lines().collect();
+    let header = lines.iter().find(|l| l.contains("worst slowdown #2 at ")).expect("the worst slowdown in the header");
+    let place = header.split_once("worst slowdown #2 at ").map(|(_, r)| r.split_once(", CL line").map_or(r, |p| p.0));
+    let comment = match place.and_then(|p| p.split_once(' ')) {
+        Some(("CL", _)) => {
+            // No place named: there must be no such comment.
+            assert!(!program.contains("slowdown #2:"), "{} {mode:?}: `{header}` names no line", d.name);
+            return;
+        }
+        Some(("line", l)) => {
+            let n: usize = l.split_whitespace().next().and_then(|n| n.parse().ok()).expect("a line number");
+            lines[n - 1]
+        }
+        Some(("block", b)) => {
+            lines.iter().find(|l| l.split_whitespace().next() == Some(b)).expect("a line of that block number")
+        }
+        _ => panic!("{} {mode:?}: `{header}` names no line", d.name),
+    };
+    assert!(
+        comment.contains("slowdown #2: on a linearized point"),
+        "{} {mode:?}: `{header}` points at `{comment}`",
+        d.name
+    );
 }
 
 /// The position words a mode writes for a step: the axis values, or the tool tip in TCP mode.
@@ -467,10 +504,10 @@ fn annotations_are_cleaned_cut_and_ordered() {
     let last = f.solved.steps.len() - 1;
     let mut options = options(Mode::G1, &f.solved, false);
     options.annotations = vec![
-        Annotation { step: last, text: "late".into() },
-        Annotation { step: 3, text: "slow (B acc)\nnext".into() },
-        Annotation { step: 3, text: "x".repeat(1000) },
-        Annotation { step: usize::MAX, text: String::new() },
+        Annotation { step: last, text: "late".into(), slowdown: None },
+        Annotation { step: 3, text: "slow (B acc)\nnext".into(), slowdown: None },
+        Annotation { step: 3, text: "x".repeat(1000), slowdown: None },
+        Annotation { step: usize::MAX, text: String::new(), slowdown: None },
     ];
     options.prediction =
         Some(Prediction { cycle_time: f64::NAN, planner: "inverse-time (fallback)".into(), ..prediction() });
@@ -505,9 +542,11 @@ fn annotations_on_a_whole_example() {
     let file = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..").join(relative);
     let f = fixture_of(Source::from_bytes(relative, std::fs::read(&file).expect("the example")));
     let n = f.solved.steps.len();
-    let mut annotations: Vec<Annotation> =
-        (0..n).step_by(37).map(|k| Annotation { step: k, text: format!("note at step {k} of {n}") }).collect();
-    annotations.push(Annotation { step: n, text: "note past the end".into() });
+    let mut annotations: Vec<Annotation> = (0..n)
+        .step_by(37)
+        .map(|k| Annotation { step: k, text: format!("note at step {k} of {n}"), slowdown: None })
+        .collect();
+    annotations.push(Annotation { step: n, text: "note past the end".into(), slowdown: None });
     assert!(annotations.iter().any(|a| a.step < n && f.solved.steps[a.step].kind == StepKind::Linearized));
     let d = dialect("siemens-840d").expect("dialect");
     for mode in [Mode::G1, Mode::InverseTime, Mode::Tcp, Mode::Bspline] {
@@ -660,8 +699,10 @@ fn a_bspline_run_written_as_g1_keeps_its_linearization_points() {
         marked.sort_unstable();
         marked.dedup();
         let n = steps.len();
-        let annotations: Vec<Annotation> =
-            marked.iter().map(|&k| Annotation { step: k, text: format!("note at step {k} of {n}") }).collect();
+        let annotations: Vec<Annotation> = marked
+            .iter()
+            .map(|&k| Annotation { step: k, text: format!("note at step {k} of {n}"), slowdown: None })
+            .collect();
         for block_numbers in [false, true] {
             let options = Options { annotations: annotations.clone(), block_numbers, ..plain.clone() };
             let text = program(&f, d, &options);

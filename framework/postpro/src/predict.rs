@@ -210,6 +210,7 @@ pub(crate) fn annotations(prediction: &Prediction, marks: &[Mark], machine: &Mac
         .map(|m| Annotation {
             step: prediction.blocks[m.first].step,
             text: format!("slowdown #{}: {}", m.number, mark_text(m, machine)),
+            slowdown: Some(m.number),
         })
         .collect()
 }
@@ -264,6 +265,8 @@ pub(crate) fn header(
                     number: m.number,
                     step,
                     line: line(job, step),
+                    nc_line: None,
+                    nc_block: None,
                     time_lost: m.lost,
                     text: mark_text(m, machine),
                 }

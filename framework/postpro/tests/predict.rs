@@ -948,11 +948,22 @@ fn check_slowdowns(program: &Program, threshold: u32, label: &str) {
     assert_eq!(worst.len(), program.slowdowns.len().min(5), "{label}: the worst five in the header");
     let mut previous = f64::INFINITY;
     for line in worst {
-        // `#3 at CL line 120: 38% of F …`: the comment `slowdown #3: 38% of F …` is in the program.
+        // `#3 at line 1830, CL line 120: 38% of F …`: the comment `slowdown #3: 38% of F …` is
+        // on line 1830 of the program.
         let (head, text) = line.split_once(": ").unwrap_or_else(|| panic!("`{line}`"));
         let number = head.split_whitespace().next().unwrap_or("");
         let comment = format!("slowdown {number}: {text}");
         assert!(program.slowdowns.iter().any(|(_, t)| *t == comment), "{label}: `{comment}` is in the program");
+        let nc_line: usize = head
+            .split_once(" at line ")
+            .and_then(|(_, l)| l.split_once(", CL line "))
+            .and_then(|(l, _)| l.parse().ok())
+            .unwrap_or_else(|| panic!("{label}: `{line}` names its NC line"));
+        assert_eq!(
+            program.lines.get(nc_line - 1).map(String::as_str),
+            Some(format!("; {comment}").as_str()),
+            "{label}: the header's `{line}` points at its comment"
+        );
         let lost = slowdown(&comment).4;
         assert!(lost <= previous, "{label}: the worst first");
         previous = lost;
