@@ -383,13 +383,26 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
+/// True when `path` exists and is not a regular file (`/dev/null`, a named pipe): it is written
+/// in place, since renaming a file over it would replace the device or the pipe.
+pub(crate) fn is_special_file(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
+}
+
 /// Writes to a temporary file beside `path`, then renames it over `path`: readers see the old
-/// file or the whole new one, never a part; on an error the temporary file is removed.
+/// file or the whole new one, never a part; on an error the temporary file is removed. A device
+/// or a pipe ([`is_special_file`]) is written directly.
 pub(crate) fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> Result<(), EmitError>,
 ) -> Result<(), EmitError> {
     let io = |e: std::io::Error| EmitError::Io { message: e.to_string() };
+    if is_special_file(path) {
+        let file = std::fs::OpenOptions::new().write(true).open(path).map_err(io)?;
+        let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
+        write(&mut out)?;
+        return out.flush().map_err(io);
+    }
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().map_or_else(|| "program".into(), |n| n.to_string_lossy().into_owned());
     let temp = dir.join(format!(".{name}.postpro-{}.tmp", std::process::id()));

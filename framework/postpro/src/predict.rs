@@ -384,8 +384,8 @@ struct Run<'a> {
 }
 
 /// Writes every `(path, text)`: each to a temporary file beside its target, then, once all are
-/// written, each renamed over its target. On an error no target is touched and the temporary
-/// files are removed.
+/// written, each renamed over its target (a device or a pipe is written in place). On an error
+/// no regular target is touched and the temporary files are removed.
 fn write_all(files: &[(PathBuf, String)]) -> Result<(), String> {
     let mut staged: Vec<(PathBuf, &Path)> = Vec::new();
     let remove = |staged: &[(PathBuf, &Path)]| {
@@ -394,6 +394,9 @@ fn write_all(files: &[(PathBuf, String)]) -> Result<(), String> {
         }
     };
     for (path, text) in files {
+        if crate::emit::is_special_file(path) {
+            continue; // written in place below
+        }
         let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let name = path.file_name().map_or_else(|| "export".into(), |n| n.to_string_lossy().into_owned());
         let temp = dir.join(format!(".{name}.postpro-{}.tmp", std::process::id()));
@@ -402,6 +405,16 @@ fn write_all(files: &[(PathBuf, String)]) -> Result<(), String> {
             return Err(format!("error: cannot write {}: {e}\n", path.display()));
         }
         staged.push((temp, path));
+    }
+    for (path, text) in files.iter().filter(|(path, _)| crate::emit::is_special_file(path)) {
+        if let Err(e) = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .and_then(|mut f| std::io::Write::write_all(&mut f, text.as_bytes()))
+        {
+            remove(&staged);
+            return Err(format!("error: cannot write {}: {e}\n", path.display()));
+        }
     }
     for (i, (temp, path)) in staged.iter().enumerate() {
         if let Err(e) = std::fs::rename(temp, path) {

@@ -113,3 +113,27 @@ fn the_output_never_overwrites_the_cl_file() {
     assert!(std::fs::read_to_string(dir.join("part.nc")).expect("kept").starts_with("$$ GENERATOR"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A device or a named pipe as the output (`-o /dev/null`, a FIFO a shop's tooling reads) is
+/// written in place: renaming a file over it, as a regular output is replaced, would turn the
+/// device or the pipe into a regular file (as root, `/dev/null` itself).
+#[test]
+fn a_named_pipe_as_the_output_is_written_through_and_stays_a_pipe() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = scratch("fifo", "examples/cl/hypar-5axis.cl");
+    let fifo = dir.join("program.pipe");
+    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo runs");
+    assert!(made.success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read_to_string(fifo).expect("the pipe reads"))
+    };
+    let o = postpro(&["-m", "maho", "hypar-5axis.cl", "--no-predict", "-o", "program.pipe"], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    // Checked before waiting for the reader, which waits for ever on a pipe renamed away.
+    assert!(std::fs::metadata(&fifo).expect("still there").file_type().is_fifo(), "still a named pipe");
+    let read = reader.join().expect("the reader ends");
+    assert!(read.starts_with("%\n") && read.trim_end().ends_with('%'), "the whole program through the pipe");
+    assert!(leftovers(&dir).is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
