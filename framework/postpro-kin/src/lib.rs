@@ -24,12 +24,15 @@ mod tool;
 
 pub use chain::Chain;
 pub use closed::TableTableClosedForm;
-pub use linearize::linearize;
+pub use linearize::{Linearizer, Linearizing, linearize};
 pub use path::targets;
-pub use policy::{Decision, Jump, Noted, Policy, SolveError, Solved, Step, StepKind, Target, choose};
+pub use policy::{
+    BranchGraph, Choice, Collected, Decision, Jump, Noted, Placer, Policy, SolveError, Solved, Step, StepKind,
+    StepSink, Target, choose,
+};
 pub use pose::{Joints, MAX_AXES, Pose};
 pub use solver::{Kinematics, Solution, Solutions, solver_for};
-pub use tool::{LengthFrom, ToolLength, solve_with_tools, tool_changes};
+pub use tool::{LengthFrom, Stretches, ToolLength, solve_with_tools, tool_changes};
 
 /// Solves a tool path on a machine: the targets of the path, the policy's choice, then
 /// linearization within the policy's tolerance (decision steps are kept in step with it).

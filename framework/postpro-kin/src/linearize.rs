@@ -5,7 +5,7 @@
 
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 
-use crate::policy::{Noted, Policy, Step, StepKind};
+use crate::policy::{Collected, Noted, Policy, Step, StepKind, StepSink};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
 
@@ -28,24 +28,128 @@ pub fn linearize_noting(
     decisions: &mut [Noted],
     policy: &Policy,
 ) -> usize {
-    let tolerance = policy.linearization_tolerance;
-    let mut out = Vec::with_capacity(steps.len());
-    let mut new_index = Vec::with_capacity(steps.len());
-    let mut inserted = 0;
-    let mut sols = Solutions::new();
+    let mut linearizer = Linearizer::new(policy);
+    let mut out = Collected { steps: Vec::with_capacity(steps.len()), decisions: Vec::new() };
+    let mut d = 0;
     for (k, step) in steps.iter().enumerate() {
-        if k > 0 && !step.rapid && matches!(step.kind, StepKind::Cl | StepKind::Reengage) {
-            let prev = steps[k - 1];
-            inserted += subdivide(kin, &prev, step, (tolerance, policy.singular_cone), 0, &mut out, &mut sols);
+        while d < decisions.len() && decisions[d].step == k {
+            linearizer.decision(decisions[d].clone());
+            d += 1;
         }
-        new_index.push(out.len());
-        out.push(*step);
+        linearizer.step(kin, *step, &mut out);
     }
-    for d in decisions.iter_mut() {
-        d.step = new_index.get(d.step).copied().unwrap_or(d.step);
+    for (slot, noted) in decisions.iter_mut().zip(out.decisions) {
+        *slot = noted;
     }
-    *steps = out;
-    inserted
+    *steps = out.steps;
+    linearizer.inserted()
+}
+
+/// Linearization as a stage between the policy and its reader: steps in, steps out, with the
+/// points it inserts before each feed step and the decisions renumbered to the steps' new
+/// indices. It keeps the previous step, nothing more.
+pub struct Linearizer {
+    tolerance: f64,
+    cone: f64,
+    previous: Option<Step>,
+    /// Decisions waiting for their step (by the index the policy gave it).
+    waiting: Vec<Noted>,
+    /// Steps the policy has made (the index of the next one).
+    taken: usize,
+    /// Steps handed on.
+    given: usize,
+    inserted: usize,
+    sols: Solutions,
+    points: Vec<Step>,
+}
+
+impl Linearizer {
+    /// A linearization to `policy`'s tolerance.
+    pub fn new(policy: &Policy) -> Linearizer {
+        Linearizer {
+            tolerance: policy.linearization_tolerance,
+            cone: policy.singular_cone,
+            previous: None,
+            waiting: Vec::new(),
+            taken: 0,
+            given: 0,
+            inserted: 0,
+            sols: Solutions::new(),
+            points: Vec::new(),
+        }
+    }
+
+    /// Points inserted so far.
+    pub fn inserted(&self) -> usize {
+        self.inserted
+    }
+
+    /// Steps handed on so far.
+    pub fn steps(&self) -> usize {
+        self.given
+    }
+
+    /// Forgets the previous step: the next one starts afresh (another tool; nothing joins them).
+    pub fn restart(&mut self) {
+        self.previous = None;
+    }
+
+    /// A decision about a step still to come.
+    pub fn decision(&mut self, noted: Noted) {
+        self.waiting.push(noted);
+    }
+
+    /// The next step of the policy, solved with `kin`: the points linearization needs before it,
+    /// the decisions about it, then it, go to `out`.
+    pub fn step(&mut self, kin: &dyn Kinematics, step: Step, out: &mut dyn StepSink) {
+        if let Some(prev) = self.previous
+            && !step.rapid
+            && matches!(step.kind, StepKind::Cl | StepKind::Reengage)
+        {
+            self.points.clear();
+            let mut points = std::mem::take(&mut self.points);
+            self.inserted += subdivide(kin, &prev, &step, (self.tolerance, self.cone), 0, &mut points, &mut self.sols);
+            for p in points.drain(..) {
+                self.given += 1;
+                out.step(p);
+            }
+            self.points = points;
+        }
+        let index = self.taken;
+        self.taken += 1;
+        let mut k = 0;
+        while k < self.waiting.len() {
+            if self.waiting[k].step == index {
+                let noted = self.waiting.remove(k);
+                out.decision(Noted { step: self.given, ..noted });
+            } else {
+                k += 1;
+            }
+        }
+        self.previous = Some(step);
+        self.given += 1;
+        out.step(step);
+    }
+}
+
+/// A [`StepSink`] that linearizes, with `kin`, the steps it takes before `out` gets them.
+pub struct Linearizing<'a> {
+    /// The linearization.
+    pub linearizer: &'a mut Linearizer,
+    /// The kinematics of the tool in the spindle.
+    pub kin: &'a dyn Kinematics,
+    /// Where the steps go.
+    pub out: &'a mut dyn StepSink,
+}
+
+impl StepSink for Linearizing<'_> {
+    fn step(&mut self, step: Step) {
+        self.linearizer.step(self.kin, step, self.out);
+    }
+
+    fn decision(&mut self, noted: Noted) {
+        self.linearizer.decision(noted);
+    }
 }
 
 /// The largest distance of the interpolated tip from the segment `a.tip → b.tip`.

@@ -25,7 +25,7 @@ use std::f64::consts::{PI, TAU};
 use std::fmt;
 
 use postpro_cl::Span;
-use postpro_machine::model::{AxisKind, BranchPreference, OnDiscontinuity, PathChoice, PolicyDefaults, Travel};
+use postpro_machine::model::{AxisKind, BranchPreference, PolicyDefaults, Travel};
 
 use crate::linearize::slerp;
 use crate::pose::{Joints, Pose};
@@ -270,6 +270,210 @@ pub enum SolveError {
     },
 }
 
+/// The policy in two passes over the targets, so that a path of any length is solved with memory
+/// that does not grow with it beyond a few bits per target:
+///
+/// 1. [`BranchGraph`] solves every target and runs the dynamic programme forward, keeping of the
+///    whole path only the branch graph (for each regular target, which state each of its states
+///    came from) and a summary of each singular run; [`BranchGraph::finish`] walks it back into a
+///    [`Choice`]: the state of every regular target.
+/// 2. [`Placer`] solves the targets again, in the same order, and turns each into its step with
+///    the chosen state, handing steps and decisions on as they are made (to the linearization,
+///    the motion program).
+///
+/// [`choose`] runs both over a slice of targets.
+pub fn choose(
+    kin: &dyn Kinematics,
+    targets: &[Target],
+    policy: &Policy,
+    start: Option<&Joints>,
+) -> Result<Solved, SolveError> {
+    let mut graph = BranchGraph::new(kin, policy, start);
+    for t in targets {
+        graph.push(t)?;
+    }
+    let mut placer = Placer::new(kin, policy, start, graph.finish());
+    let mut out = Collected::default();
+    for t in targets {
+        placer.push(kin, t, &mut out)?;
+    }
+    Ok(Solved { steps: out.steps, decisions: out.decisions, inserted: 0 })
+}
+
+/// Where the steps of the policy (or of the linearization) go, in path order: each decision
+/// before the step it concerns.
+pub trait StepSink {
+    /// The next step.
+    fn step(&mut self, step: Step);
+    /// A decision about the step with index `noted.step` (the next one, or one of the next).
+    fn decision(&mut self, noted: Noted);
+}
+
+/// Steps and decisions collected in vectors.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Collected {
+    /// The steps.
+    pub steps: Vec<Step>,
+    /// The decisions.
+    pub decisions: Vec<Noted>,
+}
+
+impl StepSink for Collected {
+    fn step(&mut self, step: Step) {
+        self.steps.push(step);
+    }
+
+    fn decision(&mut self, noted: Noted) {
+        self.decisions.push(noted);
+    }
+}
+
+/// What both passes know of the machine and the policy.
+struct Rules<'a> {
+    machine: &'a postpro_machine::model::Machine,
+    policy: &'a Policy,
+    rotary: Vec<usize>,
+    linear: Vec<usize>,
+    home: Joints,
+    unwinding: Unwinding,
+    /// The preferred sign of an axis.
+    preference: Option<(usize, f64)>,
+}
+
+impl<'a> Rules<'a> {
+    fn new(machine: &'a postpro_machine::model::Machine, policy: &'a Policy) -> Rules<'a> {
+        let rotary: Vec<usize> =
+            (0..machine.axes.len()).filter(|&i| machine.axes[i].kind == AxisKind::Rotary).collect();
+        let linear: Vec<usize> =
+            (0..machine.axes.len()).filter(|&i| machine.axes[i].kind == AxisKind::Linear).collect();
+        let mut home = Joints::zeros(machine.axes.len());
+        for (i, a) in machine.axes.iter().enumerate() {
+            home[i] = a.home;
+        }
+        let unwinding = Unwinding::new(machine, &rotary, home, policy.unwind);
+        let preference = match &policy.branch {
+            BranchPreference::Closest => None,
+            BranchPreference::Positive(l) => machine.axis_index(l).map(|i| (i, 1.0)),
+            BranchPreference::Negative(l) => machine.axis_index(l).map(|i| (i, -1.0)),
+        };
+        Rules { machine, policy, rotary, linear, home, unwinding, preference }
+    }
+
+    fn unreachable(&self, t: &Target) -> SolveError {
+        let a = t.pose.axis;
+        let help = if self.rotary.len() < 2 {
+            "a 3- or 4-axis machine cannot tilt the tool this way".to_string()
+        } else {
+            format!(
+                "the rotary axes of {} cannot point the tool this way: choose another orientation of the part in the CAM system, or another machine",
+                self.machine.name
+            )
+        };
+        SolveError::Unreachable { span: t.span, i: a.x, j: a.y, k: a.z, machine: self.machine.name.clone(), help }
+    }
+
+    /// Moving the part on the table brings a linear axis back within its travel, never a rotary
+    /// one.
+    fn travel_help(&self, axes: &[usize]) -> String {
+        if axes.iter().all(|&i| self.machine.axes[i].kind == AxisKind::Rotary) {
+            "a rotary axis beyond its travel is not fixed by moving the part: choose another orientation of the part \
+             in the CAM system (a set-up from below is turned over by hand and posted apart), or another machine"
+                .to_string()
+        } else {
+            "move the part on the table (part_origin), or choose another machine".to_string()
+        }
+    }
+
+    fn out_of_travel(&self, t: &Target, reasons: &[(usize, f64)]) -> SolveError {
+        let mut detail: Vec<String> = reasons.iter().map(|&r| self.describe(r)).collect();
+        detail.dedup();
+        SolveError::OutOfTravel {
+            span: t.span,
+            detail: detail.join("; "),
+            machine: self.machine.name.clone(),
+            help: self.travel_help(&reasons.iter().map(|r| r.0).collect::<Vec<_>>()),
+        }
+    }
+
+    /// The linear axes of a solution within their travels (they do not change with unwinding),
+    /// or the axis and value that leave it.
+    fn linear_ok(&self, c: &Joints) -> Result<(), (usize, f64)> {
+        match self.linear.iter().find(|&&l| !self.machine.axes[l].travel.contains(c[l])) {
+            Some(&l) => Err((l, c[l])),
+            None => Ok(()),
+        }
+    }
+
+    /// A solution with its rotary angles at the turn nearest to `prev`, within their travels; of
+    /// two equally near (half a turn either way), the one nearer home.
+    fn unwound(&self, c: &Joints, prev: &Joints) -> Result<Joints, (usize, f64)> {
+        let mut j = *c;
+        for &r in &self.rotary {
+            let travel = &self.machine.axes[r].travel;
+            let v = unwrap_near(c[r], prev[r], travel).ok_or((r, c[r]))?;
+            let other = v - TAU * (v - prev[r]).signum();
+            let tie = ((v - prev[r]).abs() - PI).abs() < 1e-9;
+            let home = self.home[r];
+            j[r] = if tie && travel.contains(other) && (other - home).abs() < (v - home).abs() { other } else { v };
+        }
+        Ok(j)
+    }
+
+    fn realize(&self, c: &Joints, prev: &Joints) -> Result<Joints, (usize, f64)> {
+        self.linear_ok(c).and_then(|()| self.unwound(c, prev))
+    }
+
+    fn describe(&self, (axis, value): (usize, f64)) -> String {
+        let a = &self.machine.axes[axis];
+        out_of_travel(&a.letter, value, &a.travel, a.kind == AxisKind::Rotary)
+    }
+
+    fn preferred(&self, j: &Joints) -> bool {
+        self.preference.is_none_or(|(axis, sign)| j[axis] * sign >= -1e-9)
+    }
+
+    fn travel_cost(&self, a: &Joints, b: &Joints) -> f64 {
+        self.rotary.iter().map(|&r| (a[r] - b[r]).abs()).sum::<f64>()
+    }
+
+    /// The free axis when every solution lies within the singular cone (the target is singular).
+    fn free_axis(&self, sols: &Solutions) -> Option<usize> {
+        let cone = self.policy.singular_cone;
+        let free = |s: &crate::solver::Solution| s.pole.filter(|&(_, d)| d < cone).map(|(axis, _)| axis);
+        sols.iter().map(free).reduce(|a, b| a.and(b)).flatten()
+    }
+
+    /// The jump from the state `from` (joints, branch; `u8::MAX` at the start) to `j` on branch
+    /// `branch`, where the move between them is a feed move between consecutive regular targets
+    /// (`consecutive`) that passes the pole or not.
+    fn jump(
+        &self,
+        from: (&Joints, u8),
+        (j, branch): (&Joints, u8),
+        consecutive: bool,
+        pole_passage: bool,
+    ) -> Option<Jump> {
+        let switch = from.1 != u8::MAX && from.1 != branch;
+        if !consecutive {
+            None
+        } else if self.rotary.iter().any(|&r| (j[r] - from.0[r]).abs() > HALF_TURN) {
+            Some(Jump::TravelLimit)
+        } else if switch && !pole_passage {
+            Some(Jump::BranchChange)
+        } else {
+            None
+        }
+    }
+
+    /// The value of endless axis `axis` after the unwinding at a rapid.
+    fn unwound_at_rapid(&self, axis: usize, value: f64) -> f64 {
+        let mut j = self.home;
+        j[axis] = value;
+        self.unwinding.apply(&mut j);
+        j[axis]
+    }
+}
+
 /// A state of the dynamic programme: a solution at its unwound turn, the discontinuities and the
 /// cost of the best path to it, the state it came from and the jump (if any) on the way from it.
 /// An infinite cost marks an empty state.
@@ -280,20 +484,10 @@ struct Node {
     pred: u8,
     joints: Joints,
     branch: u8,
-    preferred: bool,
-    jump: Option<Jump>,
 }
 
 impl Node {
-    const EMPTY: Node = Node {
-        jumps: u32::MAX,
-        cost: f64::INFINITY,
-        pred: 0,
-        joints: Joints::EMPTY,
-        branch: 0,
-        preferred: false,
-        jump: None,
-    };
+    const EMPTY: Node = Node { jumps: u32::MAX, cost: f64::INFINITY, pred: 0, joints: Joints::EMPTY, branch: 0 };
 
     fn is_live(&self) -> bool {
         self.cost.is_finite()
@@ -305,332 +499,120 @@ impl Node {
     }
 }
 
+fn best_state(layer: &[Node; 2]) -> usize {
+    usize::from(layer[1].better_than(&layer[0]))
+}
+
 /// The smallest distance (rad) from a pose's solutions to the pole of their free axis; infinite
 /// when no solution has one.
 fn pole_distance(sols: &Solutions) -> f64 {
     sols.iter().filter_map(|s| s.pole.map(|(_, d)| d)).fold(f64::INFINITY, f64::min)
 }
 
-/// Chooses one solution per target. `start` is where the machine is before the first target
-/// (its home position when `None`).
-pub fn choose(
-    kin: &dyn Kinematics,
-    targets: &[Target],
-    policy: &Policy,
-    start: Option<&Joints>,
-) -> Result<Solved, SolveError> {
-    let machine = kin.machine();
-    let rotary: Vec<usize> = (0..machine.axes.len()).filter(|&i| machine.axes[i].kind == AxisKind::Rotary).collect();
-    let linear: Vec<usize> = (0..machine.axes.len()).filter(|&i| machine.axes[i].kind == AxisKind::Linear).collect();
-    let mut home = Joints::zeros(machine.axes.len());
-    for (i, a) in machine.axes.iter().enumerate() {
-        home[i] = a.home;
-    }
-    let start = start.copied().unwrap_or(home);
-    let unwinding = Unwinding::new(machine, &rotary, home, policy.unwind);
-    let preference = match &policy.branch {
-        BranchPreference::Closest => None,
-        BranchPreference::Positive(l) => machine.axis_index(l).map(|i| (i, 1.0)),
-        BranchPreference::Negative(l) => machine.axis_index(l).map(|i| (i, -1.0)),
-    };
+/// Below this distance from the pole (rad) a tool axis is on it.
+const ON_POLE: f64 = 1e-9;
 
-    let unreachable = |t: &Target| {
-        let a = t.pose.axis;
-        let help = if rotary.len() < 2 {
-            "a 3- or 4-axis machine cannot tilt the tool this way".to_string()
-        } else {
-            format!(
-                "the rotary axes of {} cannot point the tool this way: choose another orientation of the part in the CAM system, or another machine",
-                machine.name
-            )
-        };
-        SolveError::Unreachable { span: t.span, i: a.x, j: a.y, k: a.z, machine: machine.name.clone(), help }
-    };
-    // Moving the part on the table brings a linear axis back within its travel, never a rotary one.
-    let travel_help = |axes: &[usize]| {
-        if axes.iter().all(|&i| machine.axes[i].kind == AxisKind::Rotary) {
-            "a rotary axis beyond its travel is not fixed by moving the part: choose another orientation of the part \
-             in the CAM system (a set-up from below is turned over by hand and posted apart), or another machine"
-                .to_string()
-        } else {
-            "move the part on the table (part_origin), or choose another machine".to_string()
-        }
-    };
-    // The linear axes of a solution within their travels (they do not change with unwinding),
-    // or the axis and value that leave it.
-    let linear_ok = |c: &Joints| -> Result<(), (usize, f64)> {
-        match linear.iter().find(|&&l| !machine.axes[l].travel.contains(c[l])) {
-            Some(&l) => Err((l, c[l])),
-            None => Ok(()),
-        }
-    };
-    // A solution with its rotary angles at the turn nearest to `prev`, within their travels; of
-    // two equally near (half a turn either way), the one nearer home.
-    let unwound = |c: &Joints, prev: &Joints| -> Result<Joints, (usize, f64)> {
-        let mut j = *c;
-        for &r in &rotary {
-            let travel = &machine.axes[r].travel;
-            let v = unwrap_near(c[r], prev[r], travel).ok_or((r, c[r]))?;
-            let other = v - TAU * (v - prev[r]).signum();
-            let tie = ((v - prev[r]).abs() - PI).abs() < 1e-9;
-            j[r] =
-                if tie && travel.contains(other) && (other - home[r]).abs() < (v - home[r]).abs() { other } else { v };
-        }
-        Ok(j)
-    };
-    let realize = |c: &Joints, prev: &Joints| linear_ok(c).and_then(|()| unwound(c, prev));
-    let describe = |(axis, value): (usize, f64)| {
-        let a = &machine.axes[axis];
-        out_of_travel(&a.letter, value, &a.travel, a.kind == AxisKind::Rotary)
-    };
-    let preferred = |j: &Joints| preference.is_none_or(|(axis, sign)| j[axis] * sign >= -1e-9);
-    let travel_cost = |a: &Joints, b: &Joints| rotary.iter().map(|&r| (a[r] - b[r]).abs()).sum::<f64>();
-
-    // 1. Every solution of every target, and dynamic programming (or greedy) over the regular
-    //    ones; the singular targets (every solution within the cone) are filled in afterwards.
-    let mut regular: Vec<u32> = Vec::with_capacity(targets.len());
-    let mut free_axis_of_singular: Vec<(u32, u8)> = Vec::new();
-    let mut pole: Vec<f64> = Vec::with_capacity(targets.len());
-    let mut dp: Vec<[Node; 2]> = Vec::with_capacity(targets.len());
-    let mut sols = Solutions::new();
-    let mut probe = Solutions::new();
-    let origin = [
-        Node { jumps: 0, cost: 0.0, pred: 0, joints: start, branch: u8::MAX, preferred: true, jump: None },
-        Node::EMPTY,
-    ];
-    // A rapid among the targets since the previous regular one (this one included).
-    let mut rapid_since = false;
-    for (i, t) in targets.iter().enumerate() {
-        kin.inverse(&t.pose, &mut sols);
-        if sols.is_empty() {
-            return Err(unreachable(t));
-        }
-        pole.push(pole_distance(&sols));
-        rapid_since |= t.rapid;
-        let free =
-            |s: &crate::solver::Solution| s.pole.filter(|&(_, d)| d < policy.singular_cone).map(|(axis, _)| axis);
-        if let Some(f) = sols.iter().map(free).reduce(|a, b| a.and(b)).flatten() {
-            free_axis_of_singular.push((i as u32, f as u8));
-            continue;
-        }
-        // Consecutive feed points: here a branch change away from the pole, or a turn beyond
-        // the nearest one, is a discontinuity.
-        let previous_target = regular.last().map(|&p| p as usize).filter(|&p| p + 1 == i && !rapid_since);
-        let pole_passage = previous_target.is_some_and(|p| {
-            passes_pole(kin, (&targets[p].pose, pole[p]), (&t.pose, pole[i]), policy.pole_passage, &mut probe)
-        });
-        let mut layer = [Node::EMPTY; 2];
-        let mut reasons: [Option<(usize, f64)>; 4] = [None; 4];
-        let previous = dp.last().unwrap_or(&origin);
-        for (s, cand) in sols.iter().enumerate() {
-            if let Err(reason) = linear_ok(&cand.joints) {
-                reasons[2 * s] = Some(reason);
-                continue;
-            }
-            for (p, node) in previous.iter().enumerate().filter(|(_, n)| n.is_live()) {
-                match unwound(&cand.joints, &node.joints) {
-                    Ok(mut j) => {
-                        let switch = node.branch != u8::MAX && node.branch != cand.branch;
-                        let jump = match previous_target {
-                            None => None,
-                            Some(_) if rotary.iter().any(|&r| (j[r] - node.joints[r]).abs() > HALF_TURN) => {
-                                Some(Jump::TravelLimit)
-                            }
-                            Some(_) if switch && !pole_passage => Some(Jump::BranchChange),
-                            Some(_) => None,
-                        };
-                        let pref = preferred(&j);
-                        // The travel before unwinding: the whole turns taken off at a rapid are
-                        // the policy's, and must not make the other branch look cheaper.
-                        let cost = node.cost
-                            + travel_cost(&node.joints, &j)
-                            + if switch { SWITCH_COST } else { 0.0 }
-                            + if pref { 0.0 } else { OFF_PREFERENCE_COST };
-                        if rapid_since {
-                            unwinding.apply(&mut j);
-                        }
-                        let next = Node {
-                            jumps: node.jumps + u32::from(jump.is_some()),
-                            cost,
-                            pred: p as u8,
-                            joints: j,
-                            branch: cand.branch,
-                            preferred: pref,
-                            jump,
-                        };
-                        if next.better_than(&layer[s]) {
-                            layer[s] = next;
-                        }
-                    }
-                    Err(reason) => reasons[2 * s + p] = Some(reason),
-                }
-            }
-        }
-        if !layer.iter().any(Node::is_live) {
-            let reasons: Vec<(usize, f64)> = reasons.into_iter().flatten().collect();
-            let mut detail: Vec<String> = reasons.iter().copied().map(describe).collect();
-            detail.dedup();
-            return Err(SolveError::OutOfTravel {
-                span: t.span,
-                detail: detail.join("; "),
-                machine: machine.name.clone(),
-                help: travel_help(&reasons.iter().map(|r| r.0).collect::<Vec<_>>()),
-            });
-        }
-        if policy.choice == PathChoice::Greedy {
-            // Keep only the best: the next point is chosen from it alone.
-            let best = best_state(&layer);
-            layer[1 - best] = Node::EMPTY;
-        }
-        dp.push(layer);
-        regular.push(i as u32);
-        rapid_since = false;
-    }
-    // Back from the best last state: the chosen state of every regular target.
-    let mut states = vec![0u8; dp.len()];
-    if let Some(last) = dp.last() {
-        let mut s = best_state(last);
-        for k in (0..dp.len()).rev() {
-            states[k] = s as u8;
-            s = usize::from(dp[k][s].pred);
-        }
-    }
-    let node = |k: usize| Some(dp[k][usize::from(states[k])]).filter(Node::is_live);
-
-    // 2. The steps in path order: regular targets from the programme, singular runs with the
-    //    free axis carried; discontinuities, branch switches and preference handled as each step
-    //    is added.
-    let mut out = Output {
-        kin,
-        rotary: &rotary,
-        policy,
-        // Room for a few retracts without reallocating the steps.
-        steps: Vec::with_capacity(targets.len() + targets.len() / 64 + 16),
-        decisions: Vec::new(),
-    };
-    let step =
-        |t: &Target, joints: Joints| Step { joints, pose: t.pose, rapid: t.rapid, span: t.span, kind: StepKind::Cl };
-    let (mut k, mut sg) = (0usize, 0usize);
-    // The previous regular target: its index, chosen joints and branch.
-    let mut previous_regular: Option<(usize, Joints, u8)> = None;
-    let mut off_preference = false;
-    let mut i = 0;
-    while i < targets.len() {
-        if regular.get(k).is_some_and(|&r| r as usize == i) {
-            let n = node(k).ok_or_else(|| unreachable(&targets[i]))?;
-            let at = out.push(step(&targets[i], n.joints), n.jump)?;
-            if let Some((p, joints, b)) = previous_regular
-                && b != n.branch
-                && p + 1 == i
-                && n.jump.is_none()
-            {
-                let decision = Decision::BranchSwitch { axes: out.moves(&joints, &n.joints) };
-                out.decisions.push(Noted { step: at, span: targets[i].span, decision });
-            }
-            if !n.preferred
-                && !off_preference
-                && let Some((axis, _)) = preference
-            {
-                let decision = Decision::OffPreference { axis: machine.axes[axis].letter.clone() };
-                out.decisions.push(Noted { step: at, span: targets[i].span, decision });
-            }
-            off_preference = !n.preferred;
-            previous_regular = Some((i, n.joints, n.branch));
-            i += 1;
-            k += 1;
-            continue;
-        }
-        // A singular run: targets i..end, then the regular target `end` if there is one.
-        let run = i;
-        while i < targets.len() && regular.get(k).is_none_or(|&r| r as usize != i) {
-            i += 1;
-        }
-        let free = usize::from(free_axis_of_singular[sg].1);
-        sg += i - run;
-        let from = out.steps.last().map_or(start[free], |s| s.joints[free]);
-        let after = (k < regular.len()).then(|| node(k)).flatten().map(|n| n.joints[free]);
-        let fractions = swing_fractions(targets, &pole, run, i, after.is_some());
-        let mut value = from;
-        let mut first_step = None;
-        for (t, u) in targets[run..i].iter().zip(&fractions) {
-            if let Some(to) = after {
-                value = from + (to - from) * u;
-            }
-            let prev = out.steps.last().map_or(start, |s| s.joints);
-            let held = kin.inverse_holding(&t.pose, free, value).ok_or_else(|| unreachable(t))?;
-            let mut j = realize(&held, &prev).map_err(|reason| SolveError::OutOfTravel {
-                span: t.span,
-                detail: describe(reason),
-                machine: machine.name.clone(),
-                help: travel_help(&[reason.0]),
-            })?;
-            j[free] = value;
-            if after.is_none() && t.rapid {
-                // No regular point follows to bring the winding back: unwind here.
-                unwinding.apply(&mut j);
-                value = j[free];
-            }
-            let at = out.push(step(t, j), None)?;
-            first_step.get_or_insert(at);
-        }
-        out.decisions.push(Noted {
-            step: first_step.unwrap_or(out.steps.len()),
-            span: targets[run].span,
-            decision: Decision::SingularHold {
-                axis: machine.axes[free].letter.clone(),
-                from: from.to_degrees(),
-                to: after.unwrap_or(value).to_degrees(),
-                points: i - run,
-            },
-        });
-    }
-    let Output { steps, mut decisions, .. } = out;
-    decisions.sort_by_key(|d| d.step);
-    Ok(Solved { steps, decisions, inserted: 0 })
+/// A growable vector of bits.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+struct Bits {
+    words: Vec<u64>,
+    len: usize,
 }
 
-/// For each target of the singular run `run..end`, the share of the free axis's swing (from its
-/// value before the run to its value at `end`) done on reaching it:
-/// - if a move into `run..=end` is a rapid, all of it at the last such rapid (the tool is away
-///   from the part): a 3-axis or vertical 3+2 pass between rapids keeps the free axis;
-/// - otherwise turning by Δ on a move whose tool axes lie at most ε from the pole moves the tool
-///   axis off the programmed one by about ε·Δ, so each move turns in inverse proportion to its ε
-///   (the largest deviation is then least): moves on the pole itself (ε = 0, a vertical pass
-///   reached at feed) take it all, in proportion to their length, and leave the tool axis exact;
-///   the tilting moves into and out of such a pass keep the free axis.
-///
-/// The move into the first target of the path (from wherever the machine is) is not counted.
-/// Without a regular target after the run (`has_after` false) nothing turns.
-fn swing_fractions(targets: &[Target], pole: &[f64], run: usize, end: usize, has_after: bool) -> Vec<f64> {
-    /// Below this distance from the pole (rad) a tool axis is on it.
-    const ON_POLE: f64 = 1e-9;
-    let count = end - run;
-    if !has_after {
-        return vec![0.0; count];
+impl Bits {
+    fn push(&mut self, bit: bool) {
+        if self.len.is_multiple_of(64) {
+            self.words.push(0);
+        }
+        if bit {
+            self.words[self.len / 64] |= 1 << (self.len % 64);
+        }
+        self.len += 1;
     }
-    let moves = run.max(1)..=end;
-    if let Some(m) = moves.clone().rev().find(|&m| targets[m].rapid) {
-        return (run..end).map(|n| if n >= m { 1.0 } else { 0.0 }).collect();
+
+    fn get(&self, i: usize) -> bool {
+        i < self.len && self.words[i / 64] & (1 << (i % 64)) != 0
     }
-    let eps = |m: usize| pole[m - 1].max(pole[m]);
-    let on_pole = moves.clone().any(|m| eps(m) < ON_POLE);
-    let weight = |m: usize| match (moves.contains(&m), on_pole) {
-        (false, _) => 0.0,
-        (true, true) if eps(m) < ON_POLE => (targets[m].pose.tip - targets[m - 1].pose.tip).norm() + 1e-9,
-        (true, true) => 0.0,
-        (true, false) => 1.0 / eps(m),
-    };
-    let weights: Vec<f64> = (run..=end).map(weight).collect();
-    let total: f64 = weights.iter().sum();
-    let mut done = 0.0;
-    weights[..count]
-        .iter()
-        .map(|w| {
-            done += w;
-            if total > 0.0 { done / total } else { 0.0 }
-        })
-        .collect()
+
+    fn set(&mut self, i: usize, bit: bool) {
+        if bit {
+            self.words[i / 64] |= 1 << (i % 64);
+        } else {
+            self.words[i / 64] &= !(1 << (i % 64));
+        }
+    }
 }
+
+/// A singular run: consecutive targets whose every solution lies within the singular cone, where
+/// the free axis is carried, not computed. What the second pass needs to carry it.
+#[derive(Clone, Debug, PartialEq)]
+struct Run {
+    /// Targets in the run.
+    points: usize,
+    /// The free axis (of the run's first target).
+    free: u8,
+    /// The free axis's value at the regular target after the run, in each of its states
+    /// (`None`: the run ends the path).
+    after: Option<[f64; 2]>,
+    /// A target of the run is reached at rapid.
+    has_rapid: bool,
+    /// How the swing to `after` is shared among the moves.
+    swing: Swing,
+}
+
+/// How the free axis's swing over a singular run is shared among the moves into `run..=end` (the
+/// run and the regular target after it; the move into the first target of the path does not
+/// count): see [`Placer`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Swing {
+    /// A move into the run is a rapid: all of it at the last one (target index), away from the
+    /// part.
+    AtRapid(usize),
+    /// Turning by Δ on a move whose tool axes lie at most ε from the pole moves the tool axis
+    /// off the programmed one by about ε·Δ, so each move turns in inverse proportion to its ε
+    /// (the largest deviation is then least): moves on the pole itself (ε = 0) take it all, in
+    /// proportion to their length, and leave the tool axis exact.
+    Weighted {
+        /// Some move lies on the pole.
+        on_pole: bool,
+        /// The sum of the weights.
+        total: f64,
+    },
+}
+
+/// The weight of a move of a singular run in [`Swing::Weighted`]: `eps` the larger pole
+/// distance of its two ends, `length` its tip length.
+fn swing_weight(eps: f64, length: f64, on_pole: bool) -> f64 {
+    match (on_pole, eps < ON_POLE) {
+        (true, true) => length + 1e-9,
+        (true, false) => 0.0,
+        (false, _) => 1.0 / eps,
+    }
+}
+
+/// The first pass's choice: the state of every regular target and how each singular run is
+/// carried.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Choice {
+    /// Per target, whether it is regular.
+    regular: Bits,
+    /// Per regular target, its state (0 or 1).
+    states: Bits,
+    runs: Vec<Run>,
+}
+
+impl Choice {
+    /// Bytes held, to check that it stays a few bits per target.
+    pub fn heap_bytes(&self) -> usize {
+        (self.regular.words.capacity() + self.states.words.capacity()) * 8 + self.runs.capacity() * size_of::<Run>()
+    }
+}
+
+mod graph;
+mod place;
+
+pub use graph::BranchGraph;
+pub use place::Placer;
 
 /// Whether the tool axis, moving along the great circle from pose `a` to pose `b` (each given
 /// with its distance from the pole), passes within `cone` of the pole: a branch change between
@@ -700,110 +682,6 @@ impl Unwinding {
             }
         }
     }
-}
-
-/// The steps being built, and the decisions about them.
-struct Output<'a> {
-    kin: &'a dyn Kinematics,
-    rotary: &'a [usize],
-    policy: &'a Policy,
-    steps: Vec<Step>,
-    decisions: Vec<Noted>,
-}
-
-impl Output<'_> {
-    /// The rotary axes from `a` to `b`, in degrees.
-    fn moves(&self, a: &Joints, b: &Joints) -> AxisMoves {
-        let axes = &self.kin.machine().axes;
-        self.rotary.iter().map(|&r| (axes[r].letter.clone(), a[r].to_degrees(), b[r].to_degrees())).collect()
-    }
-
-    /// The rotary axis that changes most from `a` to `b`, and by how much (rad).
-    fn largest_turn(&self, a: &Joints, b: &Joints) -> Option<(usize, f64)> {
-        self.rotary.iter().map(|&r| (r, (b[r] - a[r]).abs())).max_by(|x, y| x.1.total_cmp(&y.1))
-    }
-
-    /// Adds a step and returns its index. A `jump` (a discontinuity from the previous step) is an
-    /// error, or is preceded by a retract above the previous point and a reorientation above this
-    /// one (this step then re-engages). A feed step that turns a rotary axis by more than
-    /// `max_rotary_step` is noted as a warning; a rapid that unwinds an endless axis is noted.
-    fn push(&mut self, mut step: Step, jump: Option<Jump>) -> Result<usize, SolveError> {
-        let Some(&prev) = self.steps.last() else {
-            self.steps.push(step);
-            return Ok(0);
-        };
-        let axes = &self.kin.machine().axes;
-        if let Some(cause) = jump {
-            match self.policy.on_discontinuity {
-                OnDiscontinuity::Error => {
-                    let r = match cause {
-                        Jump::TravelLimit => {
-                            self.rotary.iter().copied().find(|&r| (step.joints[r] - prev.joints[r]).abs() > HALF_TURN)
-                        }
-                        Jump::BranchChange => self.largest_turn(&prev.joints, &step.joints).map(|(r, _)| r),
-                    }
-                    .unwrap_or(self.rotary[0]);
-                    return Err(SolveError::Discontinuity {
-                        span: step.span,
-                        axis: axes[r].letter.clone(),
-                        from: prev.joints[r].to_degrees(),
-                        to: step.joints[r].to_degrees(),
-                        cause,
-                    });
-                }
-                OnDiscontinuity::Retract { clearance } => {
-                    let up =
-                        |s: &Step| Pose { tip: s.pose.tip + s.pose.axis.into_inner() * clearance, axis: s.pose.axis };
-                    let (a, b) = (up(&prev), up(&step));
-                    self.steps.push(Step {
-                        joints: self.kin.place(&a, &prev.joints),
-                        pose: a,
-                        rapid: true,
-                        kind: StepKind::Retract,
-                        ..prev
-                    });
-                    self.steps.push(Step {
-                        joints: self.kin.place(&b, &step.joints),
-                        pose: b,
-                        rapid: true,
-                        kind: StepKind::Reorient,
-                        ..step
-                    });
-                    step.kind = StepKind::Reengage;
-                    let decision = Decision::Retract { clearance, axes: self.moves(&prev.joints, &step.joints) };
-                    self.decisions.push(Noted { step: self.steps.len(), span: step.span, decision });
-                }
-            }
-        } else if !step.rapid {
-            if let Some((r, turn)) = self.largest_turn(&prev.joints, &step.joints)
-                && turn > self.policy.max_rotary_step
-            {
-                let decision = Decision::LargeRotaryStep {
-                    axis: axes[r].letter.clone(),
-                    from: prev.joints[r].to_degrees(),
-                    to: step.joints[r].to_degrees(),
-                };
-                self.decisions.push(Noted { step: self.steps.len(), span: step.span, decision });
-            }
-        } else {
-            for &r in self.rotary {
-                if axes[r].travel == Travel::Endless && (step.joints[r] - prev.joints[r]).abs() > HALF_TURN {
-                    let decision = Decision::Unwind {
-                        axis: axes[r].letter.clone(),
-                        from: prev.joints[r].to_degrees(),
-                        to: step.joints[r].to_degrees(),
-                    };
-                    self.decisions.push(Noted { step: self.steps.len(), span: step.span, decision });
-                }
-            }
-        }
-        self.steps.push(step);
-        Ok(self.steps.len() - 1)
-    }
-}
-
-fn best_state(layer: &[Node; 2]) -> usize {
-    usize::from(layer[1].better_than(&layer[0]))
 }
 
 /// `value` plus whole turns: the one nearest to `near` within the travel.

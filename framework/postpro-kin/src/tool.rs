@@ -9,10 +9,11 @@
 use postpro_cl::{ItemKind, ToolPath};
 use postpro_machine::model::Machine;
 
-use crate::policy::{Policy, SolveError, Solved, choose};
+use crate::linearize::{Linearizer, Linearizing};
+use crate::policy::{BranchGraph, Collected, Placer, Policy, SolveError, Solved};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
-use crate::{linearize, targets};
+use crate::targets;
 
 /// A machine's kinematics with the tool tip `extra` mm further from the spindle nose than the
 /// machine definition's tool length.
@@ -69,10 +70,10 @@ pub struct LengthFrom {
     pub length: f64,
 }
 
-/// Solves a tool path whose tools differ in length: each stretch of items from one entry of
-/// `lengths` to the next is solved with the kinematics of its tool (continuing from the position
-/// the stretch before ended at) and linearized with it. Items before the first entry use the
-/// machine definition's tool length. The step indices of the decisions are those of the whole.
+/// Solves a tool path whose tools differ in length: one choice over the whole path (the rotary
+/// angles it is about do not depend on the tool), then each stretch of items from one entry of
+/// `lengths` to the next placed with the kinematics of its tool and linearized with it. Items
+/// before the first entry use the machine definition's tool length.
 pub fn solve_with_tools(
     kin: &dyn Kinematics,
     path: &ToolPath,
@@ -80,38 +81,62 @@ pub fn solve_with_tools(
     lengths: &[LengthFrom],
 ) -> Result<Solved, SolveError> {
     let all = targets(path, policy.linearization_tolerance);
-    let mut solved = Solved { steps: Vec::with_capacity(all.len()), decisions: Vec::new(), inserted: 0 };
-    // Where each stretch starts, as a byte offset of the CL text: targets carry their item's span.
-    let mut bounds: Vec<(u32, f64)> = Vec::with_capacity(lengths.len() + 1);
-    bounds.push((0, kin.machine().chain.tool_length));
-    for l in lengths {
-        let at = path.items.get(l.item).map_or(u32::MAX, |i| i.span.start);
-        match bounds.last_mut() {
-            Some(last) if last.0 == at => last.1 = l.length,
-            _ => bounds.push((at, l.length)),
-        }
+    let mut graph = BranchGraph::new(kin, policy, None);
+    for t in &all {
+        graph.push(t)?;
     }
-    let mut from = 0;
-    for (b, &(_, length)) in bounds.iter().enumerate() {
-        let end =
-            bounds.get(b + 1).map_or(all.len(), |&(at, _)| from + all[from..].partition_point(|t| t.span.start < at));
-        if end == from {
-            continue;
+    let mut placer = Placer::new(kin, policy, None, graph.finish());
+    let mut linearizer = Linearizer::new(policy);
+    let mut out = Collected { steps: Vec::with_capacity(all.len()), decisions: Vec::new() };
+    let mut stretches = Stretches::new(kin, path, lengths);
+    for t in &all {
+        if stretches.enter(t.span.start) {
+            linearizer.restart();
         }
-        let tool = ToolLength::new(kin, length);
-        let start = solved.steps.last().map(|s| s.joints);
-        let mut part = choose(&tool, &all[from..end], policy, start.as_ref())?;
-        part.inserted = linearize::linearize_noting(&tool, &mut part.steps, &mut part.decisions, policy);
-        let offset = solved.steps.len();
-        solved.steps.extend(part.steps);
-        solved.decisions.extend(part.decisions.into_iter().map(|mut d| {
-            d.step += offset;
-            d
-        }));
-        solved.inserted += part.inserted;
-        from = end;
+        let tool = stretches.tool();
+        placer.push(&tool, t, &mut Linearizing { linearizer: &mut linearizer, kin: &tool, out: &mut out })?;
     }
-    Ok(solved)
+    Ok(Solved { steps: out.steps, decisions: out.decisions, inserted: linearizer.inserted() })
+}
+
+/// The stretches of a tool path that each tool's length applies to, walked in path order.
+pub struct Stretches<'a> {
+    kin: &'a dyn Kinematics,
+    /// Where each stretch starts (a byte offset of the CL text) and its tool length.
+    bounds: Vec<(u32, f64)>,
+    /// The stretch walked.
+    current: usize,
+}
+
+impl<'a> Stretches<'a> {
+    /// The stretches of `path` for `lengths`, before its first item.
+    pub fn new(kin: &'a dyn Kinematics, path: &ToolPath, lengths: &[LengthFrom]) -> Stretches<'a> {
+        let mut bounds: Vec<(u32, f64)> = Vec::with_capacity(lengths.len() + 1);
+        bounds.push((0, kin.machine().chain.tool_length));
+        for l in lengths {
+            let at = path.items.get(l.item).map_or(u32::MAX, |i| i.span.start);
+            match bounds.last_mut() {
+                Some(last) if last.0 == at => last.1 = l.length,
+                _ => bounds.push((at, l.length)),
+            }
+        }
+        Stretches { kin, bounds, current: 0 }
+    }
+
+    /// Moves to the stretch of the statement at byte offset `at` (offsets in path order); true
+    /// when that is another stretch.
+    pub fn enter(&mut self, at: u32) -> bool {
+        let before = self.current;
+        while self.current + 1 < self.bounds.len() && at >= self.bounds[self.current + 1].0 {
+            self.current += 1;
+        }
+        self.current != before
+    }
+
+    /// The kinematics of the current stretch's tool.
+    pub fn tool(&self) -> ToolLength<'a> {
+        ToolLength::new(self.kin, self.bounds[self.current].1)
+    }
 }
 
 /// The item index of every tool change of a tool path, in order.
