@@ -13,7 +13,7 @@
 //! the end spindle and coolant off, the retract and the rotaries home.
 
 use postpro_cl::{
-    CutterComp, Delay, FeedPer, ItemKind, Motion, MoveKind, Span, Spindle, SpindleUnit, TextKind, ToolPath,
+    CutterComp, Delay, FeedPer, Item, ItemKind, Motion, MoveKind, Span, Spindle, SpindleUnit, TextKind, ToolPath,
 };
 use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind, ToolLength, bspline};
 use postpro_machine::model::{AxisKind, Machine};
@@ -87,10 +87,7 @@ impl Options {
 /// True when a feed move of `steps` turns a rotary axis (simultaneous 4- or 5-axis motion): the
 /// program cannot be written in working planes.
 pub fn simultaneous(kin: &dyn Kinematics, steps: &[Step]) -> bool {
-    steps.windows(2).any(|w| {
-        let feed = !w[1].rapid && !matches!(w[1].kind, StepKind::Retract | StepKind::Reorient);
-        feed && !crate::arc::same_rotaries(kin, &w[0].joints, &w[1].joints)
-    })
+    crate::survey::Survey::of(kin, steps).simultaneous
 }
 
 /// What the job adds to the machine: where the program's zero is, which offset holds it, the
@@ -194,46 +191,100 @@ pub fn build(
     job: &Job,
     sink: &mut dyn MotionSink,
 ) -> Result<Summary, MotionError> {
-    let mut b = Builder::new(kin, options, job, &solved.steps, sink);
-    b.unknown = path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
+    let set_ups = crate::survey::Survey::of(kin, &solved.steps).set_ups;
+    let mut stage = Stage::new(kin, options, job, unknown_words(path), set_ups, sink);
     let mut k = 0; // next step
     let decisions = &solved.decisions;
     let mut d = 0; // next decision
     for (i, item) in path.items.iter().enumerate() {
+        // The steps of a motion item: every step up to its statement.
+        let first = k;
+        if matches!(item.kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_)) {
+            while k < solved.steps.len() && solved.steps[k].span.start <= item.span.start {
+                k += 1;
+            }
+        }
+        let from = d;
+        while d < decisions.len() && decisions[d].step < k {
+            d += 1;
+        }
+        stage.item(i, item, &solved.steps[first..k], &decisions[from..d])?;
+    }
+    for step in &solved.steps[k..] {
+        stage.trailing(step)?;
+    }
+    stage.finish(solved.inserted)
+}
+
+/// The words of a tool path that the reader does not know: written as comments.
+pub fn unknown_words(path: &ToolPath) -> std::collections::BTreeSet<String> {
+    path.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect()
+}
+
+/// The motion program as a stage of the pipeline: the reader's items in CL order, each with the
+/// solved steps up to its statement, in; blocks out to a [`MotionSink`] as they are made. It
+/// holds what one item needs (a B-spline run, a canned cycle's holes), not the program.
+pub struct Stage<'a> {
+    b: Builder<'a>,
+    /// Steps taken so far (the index of the next one).
+    k: usize,
+    /// CL points among them (and re-engagements), and decisions.
+    cl_points: usize,
+    decisions: usize,
+}
+
+impl<'a> Stage<'a> {
+    /// A stage writing for `kin` (the machine with its definition's tool length) with `options`
+    /// for `job`; `unknown` are the words the reader does not know (written as comments),
+    /// `set_ups` which steps stand in a 3+2 set-up.
+    pub fn new(
+        kin: &'a dyn Kinematics,
+        options: &'a Options,
+        job: &'a Job,
+        unknown: std::collections::BTreeSet<String>,
+        set_ups: crate::survey::SetUps,
+        sink: &'a mut dyn MotionSink,
+    ) -> Stage<'a> {
+        let mut b = Builder::new(kin, options, job, set_ups, sink);
+        b.unknown = unknown;
+        Stage { b, k: 0, cl_points: 0, decisions: 0 }
+    }
+
+    /// Item `index` of the tool path, with `steps` (every step up to its statement not given
+    /// before, numbered from the steps given so far) and `decisions` (those about these steps).
+    pub fn item(&mut self, index: usize, item: &Item, steps: &[Step], decisions: &[Noted]) -> Result<(), MotionError> {
+        let b = &mut self.b;
+        let first = self.k;
+        self.k += steps.len();
+        self.cl_points += steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
+        self.decisions += decisions.len();
         let hole = matches!(&item.kind, ItemKind::Move(m) if m.kind == MoveKind::Hole);
         // A cycle's holes end at anything but another hole (or a comment).
         if !hole && !matches!(item.kind, ItemKind::Comment(_) | ItemKind::Record(_)) {
             b.flush_cycle()?;
         }
-        if let Some(change) = job.tooling.change_at(i) {
+        if let Some(change) = b.job.tooling.change_at(index) {
             b.tool_change(item.span, change.tool)?;
         }
         if let ItemKind::CycleOn(c) = &item.kind {
-            b.cycle_on(item.span, c)?;
-            continue;
+            return b.cycle_on(item.span, c);
         }
         let (motion, arc) = match &item.kind {
             ItemKind::Move(m) => (m.motion, None),
             ItemKind::Arc(a) => (a.motion, Some(a.as_ref())),
             ItemKind::Nurbs(n) => (n.motion, None),
-            ItemKind::ToolChange(_) => continue,
+            ItemKind::ToolChange(_) => return Ok(()),
             _ => {
                 b.item(item.span, &item.kind);
-                continue;
+                return Ok(());
             }
         };
-        // The steps of this item: every step up to its statement.
-        let first = k;
-        while k < solved.steps.len() && solved.steps[k].span.start <= item.span.start {
-            k += 1;
-        }
-        let steps = &solved.steps[first..k];
         if let Some(arc) = arc
-            && let Some(written) = b.arc(arc, item.span, first, steps, motion, &decisions[d..])?
+            && b.arc(arc, item.span, first, steps, motion, decisions)?.is_some()
         {
-            d += written;
-            continue;
+            return Ok(());
         }
+        let mut d = 0; // next decision
         for (j, step) in steps.iter().enumerate() {
             while d < decisions.len() && decisions[d].step == first + j {
                 b.decision(&decisions[d]);
@@ -244,19 +295,30 @@ pub fn build(
             }
             b.step(first + j, step, motion, hole)?;
         }
+        Ok(())
     }
-    b.flush_cycle()?;
-    while k < solved.steps.len() {
-        b.step(k, &solved.steps[k], Motion::Rapid, false)?;
-        k += 1;
+
+    /// A step after the last item (written as a rapid).
+    pub fn trailing(&mut self, step: &Step) -> Result<(), MotionError> {
+        self.b.flush_cycle()?;
+        let k = self.k;
+        self.k += 1;
+        self.cl_points += usize::from(matches!(step.kind, StepKind::Cl | StepKind::Reengage));
+        self.b.step(k, step, Motion::Rapid, false)
     }
-    b.finish();
-    Ok(Summary {
-        cl_points: solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count(),
-        linearized_points: solved.inserted,
-        decisions: decisions.len(),
-        warnings: std::mem::take(&mut b.warnings),
-    })
+
+    /// The end of the program (spindle and coolant off, retract, rotaries home): the header's
+    /// counts, with `linearized` the points linearization added, and what had to be said.
+    pub fn finish(mut self, linearized: usize) -> Result<Summary, MotionError> {
+        self.b.flush_cycle()?;
+        self.b.finish();
+        Ok(Summary {
+            cl_points: self.cl_points,
+            linearized_points: linearized,
+            decisions: self.decisions,
+            warnings: std::mem::take(&mut self.b.warnings),
+        })
+    }
 }
 
 /// A feed move queued in a B-spline run.
@@ -324,8 +386,8 @@ pub(crate) struct Builder<'a> {
     /// TCP mode: the linearization points since the last position written.
     via: Vec<Position>,
     pub(crate) warnings: Vec<Warning>,
-    /// Every solved step (to see how long a 3+2 set-up stands).
-    pub(crate) steps: &'a [Step],
+    /// Which steps stand in a 3+2 set-up.
+    pub(crate) set_ups: crate::survey::SetUps,
     /// The working plane in force.
     pub(crate) plane: Option<crate::block::PlaneKind>,
     /// Per axis, its brake: locked, unlocked, or not known (at the start: unlocked before the axis
@@ -338,7 +400,7 @@ impl<'a> Builder<'a> {
         kin: &'a dyn Kinematics,
         options: &'a Options,
         job: &'a Job,
-        steps: &'a [Step],
+        set_ups: crate::survey::SetUps,
         sink: &'a mut dyn MotionSink,
     ) -> Self {
         Builder {
@@ -370,7 +432,7 @@ impl<'a> Builder<'a> {
             span: Span::default(),
             via: Vec::new(),
             warnings: Vec::new(),
-            steps,
+            set_ups,
             plane: None,
             locked: vec![None; kin.machine().axes.len()],
         }

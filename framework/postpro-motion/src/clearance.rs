@@ -161,12 +161,7 @@ impl Builder<'_> {
     /// True when the rotary axes of step `k` stand until the next rapid that turns them (or the
     /// end): a 3+2 set-up, not simultaneous motion.
     pub(crate) fn indexed_from(&self, k: usize) -> bool {
-        let Some(first) = self.steps.get(k) else { return false };
-        let kin = self.base;
-        match self.steps[k + 1..].iter().find(|s| !crate::arc::same_rotaries(kin, &first.joints, &s.joints)) {
-            None => true,
-            Some(s) => s.rapid || matches!(s.kind, StepKind::Retract | StepKind::Reorient),
-        }
+        self.set_ups.indexed_from(k)
     }
 
     /// The working plane of the set-up with the rotary axes at `joints` (the kinematics'

@@ -15,6 +15,7 @@ mod build;
 mod clearance;
 mod cycle;
 pub mod frame;
+pub mod survey;
 pub mod tooling;
 pub mod travel;
 
@@ -22,8 +23,9 @@ pub use block::{
     Arc, AxisSet, Block, BlockKind, Cycle, CycleMove, FeedWord, Hole, Linear, MachineRetract, Mode, Plane, PlaneKind,
     Position, Rapid, Spline, ToolCall, WorkPlane,
 };
-pub use build::{Arcs, Job, Options, build, collect, simultaneous, study};
+pub use build::{Arcs, Job, Options, Stage, build, collect, simultaneous, study, unknown_words};
 pub use frame::{WorkFrame, part_zero_frame, work_frame};
+pub use survey::{SetUps, Survey, Surveyor};
 pub use tooling::{Tool, Tooling, tooling};
 
 use postpro_cl::Span;

@@ -13,7 +13,7 @@ use postpro_cl::Span;
 use postpro_kin::StepKind;
 use postpro_machine::model::{AxisKind, Machine, Travel};
 
-use crate::block::{BlockKind, Position};
+use crate::block::{Block, BlockKind, Position};
 use crate::{MotionError, Program, Warning};
 
 /// Checks `program` on `machine`; `work_offset_at` is the work offset's position in machine
@@ -23,22 +23,63 @@ pub fn check(
     machine: &Machine,
     work_offset_at: Option<&Point3<f64>>,
 ) -> Result<Vec<Warning>, MotionError> {
-    let count = machine.axes.len();
-    let mut low = vec![(f64::INFINITY, Span::default()); count];
-    let mut high = vec![(f64::NEG_INFINITY, Span::default()); count];
-    let shift = |i: usize| {
-        let c = machine.chain.linear.iter().position(|&l| l == i)?;
-        work_offset_at.map(|p| p[c.min(2)])
-    };
-    let mut visit = |p: &Position, span: Span| -> Result<(), MotionError> {
+    let mut check = TravelCheck::new(machine, work_offset_at);
+    for block in &program.blocks {
+        check.block(block)?;
+    }
+    Ok(check.finish())
+}
+
+/// The travel check as blocks come: an error at the first block beyond a travel that can be
+/// checked, the spans of the others kept for the warnings at the end.
+pub struct TravelCheck<'a> {
+    machine: &'a Machine,
+    /// Per linear axis, the offset of the work offset in machine coordinates, when known.
+    shift: Vec<Option<f64>>,
+    low: Vec<(f64, Span)>,
+    high: Vec<(f64, Span)>,
+}
+
+impl<'a> TravelCheck<'a> {
+    /// A check on `machine`, the work offset at `work_offset_at` in machine coordinates if known.
+    pub fn new(machine: &'a Machine, work_offset_at: Option<&Point3<f64>>) -> TravelCheck<'a> {
+        let count = machine.axes.len();
+        let shift = (0..count)
+            .map(|i| {
+                let c = machine.chain.linear.iter().position(|&l| l == i)?;
+                work_offset_at.map(|p| p[c.min(2)])
+            })
+            .collect();
+        TravelCheck {
+            machine,
+            shift,
+            low: vec![(f64::INFINITY, Span::default()); count],
+            high: vec![(f64::NEG_INFINITY, Span::default()); count],
+        }
+    }
+
+    /// The next block of the program.
+    pub fn block(&mut self, block: &Block) -> Result<(), MotionError> {
+        let span = block.span;
+        match &block.kind {
+            BlockKind::Rapid(r) => self.visit(&r.to, span),
+            BlockKind::Linear(l) => l.via.iter().chain(std::iter::once(&l.to)).try_for_each(|p| self.visit(p, span)),
+            BlockKind::Arc(a) => a.via.iter().chain(std::iter::once(&a.to)).try_for_each(|p| self.visit(p, span)),
+            BlockKind::Spline(s) => s.points.iter().try_for_each(|p| self.visit(p, span)),
+            _ => Ok(()),
+        }
+    }
+
+    fn visit(&mut self, p: &Position, span: Span) -> Result<(), MotionError> {
         let added = matches!(p.kind, StepKind::Retract | StepKind::Reorient);
-        for (i, axis) in machine.axes.iter().enumerate() {
+        for (i, axis) in self.machine.axes.iter().enumerate() {
             let rotary = axis.kind == AxisKind::Rotary;
             if !rotary && added {
                 continue;
             }
-            let value = p.axes[i] + if rotary { 0.0 } else { shift(i).unwrap_or(0.0) };
-            if (rotary || shift(i).is_some()) && !axis.travel.contains(value) {
+            let shift = if rotary { None } else { self.shift[i] };
+            let value = p.axes[i] + shift.unwrap_or(0.0);
+            if (rotary || shift.is_some()) && !axis.travel.contains(value) {
                 let Travel::Limited { min, max } = axis.travel else { continue };
                 let (unit, show) =
                     if rotary { ("°", f64::to_degrees as fn(f64) -> f64) } else { (" mm", (|v| v) as fn(f64) -> f64) };
@@ -59,58 +100,41 @@ pub fn check(
                 });
             }
             if !rotary {
-                if value < low[i].0 {
-                    low[i] = (value, span);
+                if value < self.low[i].0 {
+                    self.low[i] = (value, span);
                 }
-                if value > high[i].0 {
-                    high[i] = (value, span);
+                if value > self.high[i].0 {
+                    self.high[i] = (value, span);
                 }
             }
         }
         Ok(())
-    };
-    for block in &program.blocks {
-        let span = block.span;
-        match &block.kind {
-            BlockKind::Rapid(r) => visit(&r.to, span)?,
-            BlockKind::Linear(l) => {
-                for p in l.via.iter().chain(std::iter::once(&l.to)) {
-                    visit(p, span)?;
-                }
-            }
-            BlockKind::Arc(a) => {
-                for p in a.via.iter().chain(std::iter::once(&a.to)) {
-                    visit(p, span)?;
-                }
-            }
-            BlockKind::Spline(s) => {
-                for p in &s.points {
-                    visit(p, span)?;
-                }
-            }
-            _ => {}
-        }
     }
-    let mut warnings = Vec::new();
-    for (i, axis) in machine.axes.iter().enumerate() {
-        if axis.kind != AxisKind::Linear || shift(i).is_some() || !low[i].0.is_finite() {
-            continue;
-        }
-        if let Travel::Limited { min, max } = axis.travel {
-            let span = high[i].0 - low[i].0;
-            if span > max - min + 1e-9 {
-                warnings.push(Warning {
-                    span: high[i].1,
-                    message: format!(
-                        "the program spans {} mm in {} but its travel is {} mm: no work offset holds it (set \
-                         `work_offset_at` in the set-up to check the travels exactly)",
-                        crate::number((span * 1000.0).round() / 1000.0),
-                        axis.letter,
-                        crate::number(((max - min) * 1000.0).round() / 1000.0)
-                    ),
-                });
+
+    /// The warnings: each linear axis whose span exceeds its travel, where the work offset's
+    /// place is not known.
+    pub fn finish(self) -> Vec<Warning> {
+        let mut warnings = Vec::new();
+        for (i, axis) in self.machine.axes.iter().enumerate() {
+            if axis.kind != AxisKind::Linear || self.shift[i].is_some() || !self.low[i].0.is_finite() {
+                continue;
+            }
+            if let Travel::Limited { min, max } = axis.travel {
+                let span = self.high[i].0 - self.low[i].0;
+                if span > max - min + 1e-9 {
+                    warnings.push(Warning {
+                        span: self.high[i].1,
+                        message: format!(
+                            "the program spans {} mm in {} but its travel is {} mm: no work offset holds it (set \
+                             `work_offset_at` in the set-up to check the travels exactly)",
+                            crate::number((span * 1000.0).round() / 1000.0),
+                            axis.letter,
+                            crate::number(((max - min) * 1000.0).round() / 1000.0)
+                        ),
+                    });
+                }
             }
         }
+        warnings
     }
-    Ok(warnings)
 }
