@@ -22,13 +22,16 @@ pub mod plan;
 pub mod profile;
 mod report;
 pub mod vpop;
+pub mod window;
 
 pub use block::{BlockLimits, Limiter, block_limits};
 pub use corner::{blend_radius, corner_speed, interior_angle};
 pub use moves::{BlockKind, Blocks, Timing, blocks};
 pub use plan::Limit;
 pub use profile::{Profile, State, speed_change};
-pub use report::{BlockResult, Cause, Mark, MarkRules, Operation, Prediction, Samples, Totals, describe};
+pub use report::{BlockResult, Cause, Mark, MarkFinder, MarkRules, Operation, Prediction, Samples, Totals, describe};
+
+use crate::plan::TrackBuilder;
 
 use postpro_kin::Kinematics;
 
@@ -66,47 +69,199 @@ impl Default for Options {
     }
 }
 
-/// Predicts the motion of `blocks` on the machine of `kin`.
+/// Predicts the motion of `blocks` (the whole program) on the machine of `kin`.
 pub fn predict(blocks: &Blocks, kin: &dyn Kinematics, options: &Options) -> Prediction {
-    let machine = kin.machine();
-    let (track, owner, curves) = match (options.splines, options.planner) {
-        (true, _) => {
-            let (track, owner, curves) = vpop::track_bspline(blocks, kin, machine);
-            (track, owner, Some(curves))
+    let mut predictor = Predictor::new(kin, options, blocks.axes, false);
+    predictor.advance(blocks);
+    predictor.finish(blocks);
+    predictor.into_prediction(blocks)
+}
+
+/// The prediction as the blocks of a program come: [`Predictor::advance`] after blocks are
+/// added to a [`Blocks`], [`Predictor::finish`] after the last; the results of the blocks the
+/// motion has left are final ([`Predictor::result`]). Streamed, it holds only what its
+/// look-ahead needs: the caller forgets the blocks before [`Predictor::needs_from`].
+pub struct Predictor<'k> {
+    kin: &'k dyn Kinematics,
+    options: Options,
+    maker: Maker,
+    track: TrackBuilder,
+    stepper: plan::Stepper,
+    collector: report::Collector,
+    /// Per operation so far, its figures summed from the final results.
+    operations: Vec<Operation>,
+    time_lost: f64,
+    feed_length: f64,
+    /// Forget what the motion has left behind.
+    forget: bool,
+}
+
+/// The planner's maker of pieces.
+enum Maker {
+    Model(model::Maker),
+    Vpop(vpop::Maker),
+}
+
+impl<'k> Predictor<'k> {
+    /// A prediction on the machine of `kin` (with `axes` axes) as `options` say; `forget`: hold
+    /// only what the look-ahead needs (the per-block results are then final and gone once read).
+    pub fn new(kin: &'k dyn Kinematics, options: &Options, axes: usize, forget: bool) -> Predictor<'k> {
+        let machine = kin.machine();
+        let (maker, window) = match (options.splines, options.planner) {
+            (true, _) => (Maker::Vpop(vpop::Maker::new(axes, machine, true)), usize::MAX),
+            (false, Planner::InverseTime) => (Maker::Model(model::Maker::new(axes)), model::window(machine)),
+            (false, Planner::Vpop) => (Maker::Vpop(vpop::Maker::new(axes, machine, false)), usize::MAX),
+        };
+        let period = options.period.unwrap_or(machine.cnc.cycle_time);
+        Predictor {
+            kin,
+            options: *options,
+            maker,
+            track: TrackBuilder::new(window),
+            stepper: plan::Stepper::new(period),
+            collector: report::Collector::new(axes, options.samples, options.threshold),
+            operations: Vec::new(),
+            time_lost: 0.0,
+            feed_length: 0.0,
+            forget,
         }
-        (false, Planner::InverseTime) => {
-            let (track, owner) = model::track(blocks, machine);
-            (track, owner, None)
+    }
+
+    /// Takes in the blocks added to `blocks` and moves the motion as far as they let it decide;
+    /// returns the blocks whose results became final.
+    pub fn advance(&mut self, blocks: &Blocks) -> std::ops::Range<usize> {
+        self.step(blocks, false)
+    }
+
+    /// No block follows: the motion goes to the end; returns the blocks whose results became
+    /// final.
+    pub fn finish(&mut self, blocks: &Blocks) -> std::ops::Range<usize> {
+        self.step(blocks, true)
+    }
+
+    fn step(&mut self, blocks: &Blocks, last: bool) -> std::ops::Range<usize> {
+        let machine = self.kin.machine();
+        let ready = match &mut self.maker {
+            Maker::Model(m) => {
+                m.extend(blocks, machine, &mut self.track);
+                m.next_block()
+            }
+            Maker::Vpop(m) => {
+                let kin = self.options.splines.then_some(self.kin);
+                m.extend(blocks, machine, kin, &mut self.track);
+                m.next_block()
+            }
+        };
+        if last {
+            self.track.complete();
         }
-        (false, Planner::Vpop) => {
-            let (track, owner) = vpop::track(blocks, machine);
-            (track, owner, None)
+        let curves = match &self.maker {
+            Maker::Vpop(m) => m.curves.as_ref(),
+            Maker::Model(_) => None,
+        };
+        let seen = report::Seen {
+            blocks,
+            track: &self.track.track,
+            owner: &self.track.owner,
+            curves,
+            kin: self.options.samples.then_some(self.kin),
+        };
+        self.collector.prepare(&seen, ready);
+        let progress = self.stepper.go(&self.track.track, &mut self.collector.observing(&seen));
+        let done = progress == plan::Progress::Done;
+        let at = self.track.owner.get(self.stepper.piece()).copied().unwrap_or(blocks.len());
+        let range = self.collector.finalize(blocks, at, done || (last && self.track.is_empty()));
+        for i in range.clone() {
+            let r = &self.collector.results[i];
+            let op = blocks.operation[i] as usize;
+            while self.operations.len() <= op {
+                let name = blocks.operations.get(self.operations.len()).cloned().unwrap_or_default();
+                self.operations.push(Operation {
+                    name,
+                    first: usize::MAX,
+                    last: 0,
+                    cycle_time: 0.0,
+                    programmed_time: 0.0,
+                    time_lost: 0.0,
+                    causes: Vec::new(),
+                });
+            }
+            let o = &mut self.operations[op];
+            o.first = o.first.min(i);
+            o.last = i;
+            o.cycle_time += r.time;
+            o.time_lost += r.lost;
+            self.time_lost += r.lost;
+            if r.kind == BlockKind::Feed {
+                self.feed_length += r.length;
+            }
         }
-    };
-    let period = options.period.unwrap_or(machine.cnc.cycle_time);
-    let keep = options.samples.then_some(kin);
-    let mut collector = report::Collector::new(blocks, &track, &owner, keep, curves.as_ref(), options.threshold);
-    let cycle_time = plan::run(&track, period, &mut collector);
-    collector.finish();
-    let operations = collector.operations();
-    // Time lost is the blocks'; the time at the programmed feed is what remains of the cycle.
-    let time_lost: f64 = collector.results.iter().map(|b| b.lost).sum();
-    let feed_length =
-        blocks.length.iter().zip(&blocks.kind).filter(|(_, k)| **k == BlockKind::Feed).map(|(l, _)| l).sum();
-    let totals = Totals {
-        cycle_time,
-        programmed_time: cycle_time - time_lost,
-        time_lost,
-        feed_length,
-        length_below: collector.length_below,
-        threshold: options.threshold,
-        samples: collector.count,
-    };
-    Prediction {
-        blocks: collector.results,
-        samples: collector.samples,
-        totals: Some(totals),
-        notes: blocks.notes.clone(),
-        operations,
+        range
+    }
+
+    /// The result of block `i`, once final (and, streamed, until the next call).
+    pub fn result(&self, i: usize) -> &BlockResult {
+        &self.collector.results[i]
+    }
+
+    /// The first block the prediction still needs: a streamed caller forgets the blocks before
+    /// it ([`Blocks::forget_before`]), and the prediction forgets what it held of them.
+    pub fn needs_from(&mut self, blocks: &Blocks) -> usize {
+        let piece = self.stepper.piece().saturating_sub(1);
+        let at = self.track.owner.get(piece).copied().unwrap_or(blocks.len());
+        let maker = match &self.maker {
+            Maker::Model(m) => m.next_block(),
+            Maker::Vpop(m) => m.next_block(),
+        };
+        let from = at.min(self.collector.finalized).min(self.track.last_block().unwrap_or(maker)).min(maker);
+        if self.forget {
+            self.track.forget_before(piece);
+            self.stepper.forget_before(piece);
+            self.collector.forget_before(from, piece);
+            if let Maker::Vpop(m) = &mut self.maker
+                && let Some(curves) = m.curves.as_mut()
+            {
+                curves.forget_before(piece);
+            }
+        }
+        from
+    }
+
+    /// The whole-program figures (final once [`Predictor::finish`] has run).
+    pub fn totals(&self) -> Totals {
+        let cycle_time = self.stepper.time(&self.track.track);
+        Totals {
+            cycle_time,
+            programmed_time: cycle_time - self.time_lost,
+            time_lost: self.time_lost,
+            feed_length: self.feed_length,
+            length_below: self.collector.length_below,
+            threshold: self.options.threshold,
+            samples: self.collector.count,
+        }
+    }
+
+    /// The operations with their figures (final once [`Predictor::finish`] has run).
+    pub fn operations(&self) -> Vec<Operation> {
+        let mut out = self.operations.clone();
+        for (op, o) in out.iter_mut().enumerate() {
+            o.programmed_time = o.cycle_time - o.time_lost;
+            o.causes = self.collector.causes_of(op);
+        }
+        out
+    }
+
+    /// The prediction of the whole program (not streamed: every block's result is held).
+    pub fn into_prediction(self, blocks: &Blocks) -> Prediction {
+        let totals = self.totals();
+        let operations = self.operations();
+        let mut collector = self.collector;
+        Prediction {
+            samples: collector.samples.take(),
+            blocks: std::mem::take(&mut collector.results).into_vec(),
+            totals: Some(totals),
+            notes: blocks.notes.clone(),
+            operations,
+        }
     }
 }

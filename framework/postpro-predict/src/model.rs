@@ -16,53 +16,85 @@ use crate::block::{Limiter, block_limits};
 use crate::corner::junction_cap;
 use crate::moves::{BlockKind, Blocks};
 use crate::plan::{Limit, Piece, Track, TrackBuilder};
+use crate::window::Window;
 use postpro_machine::model::Machine;
 
 /// The track of `blocks` on `machine`, and for each piece the block it stands for (blocks of
 /// no duration have no piece).
-pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
-    let mut delta = vec![0.0; blocks.axes];
-    let mut previous_delta = vec![0.0; blocks.axes];
-    let mut track = TrackBuilder::with_capacity(blocks.len());
-    for i in 0..blocks.len() {
-        track.before(blocks.stop_before[i], blocks.dwell_before[i]);
-        let nominal = blocks.nominal[i];
-        if nominal <= 0.0 {
-            continue; // nothing moves
-        }
-        blocks.delta(i, &mut delta);
-        let piece = piece(blocks, machine, i, &delta, nominal);
-        let previous = track.last_block();
-        let mut why = blocks.junction_limit(previous, i);
-        let corner = match previous {
-            // Two blocks of one arc meet without a corner: at the arc's own speed, as a share of
-            // the feed.
-            Some(previous) if !track.stop_pending() && blocks.same_arc(previous, i) => {
-                why = Limit::Curvature;
-                crate::corner::arc_speed(machine, blocks.radius[i]) / blocks.nominal_tip_feed(i).max(1e-12)
-            }
-            Some(previous) if !track.stop_pending() => {
-                blocks.delta(previous, &mut previous_delta);
-                // In programmed time a block's axis rates are ΔP / T and its tip covers its
-                // nominal tip feed per unit.
-                let tip = blocks.nominal_tip_feed(previous).max(blocks.nominal_tip_feed(i));
-                junction_cap(
-                    machine,
-                    &blocks.direction(previous),
-                    &blocks.direction(i),
-                    tip,
-                    (&previous_delta, blocks.nominal[previous]),
-                    (&delta, nominal),
-                )
-            }
-            _ => f64::INFINITY,
-        };
-        track.push(piece, i, corner, why);
+pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Window<usize>) {
+    let mut track = TrackBuilder::new(window(machine));
+    Maker::new(blocks.axes).extend(blocks, machine, &mut track);
+    track.complete();
+    (track.track, track.owner)
+}
+
+/// Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
+/// N + 10 is taken into account": the current block and `look_ahead` more — blocks of the
+/// program, not the pieces the prediction cuts an arc or a TCP move into.
+pub fn window(machine: &Machine) -> usize {
+    machine.cnc.look_ahead.saturating_add(1)
+}
+
+/// Makes the pieces of the blocks as they come.
+#[derive(Clone, Debug)]
+pub struct Maker {
+    /// The next block.
+    next: usize,
+    delta: Vec<f64>,
+    previous_delta: Vec<f64>,
+}
+
+impl Maker {
+    /// Before the first block, on a machine of `axes` axes.
+    pub fn new(axes: usize) -> Maker {
+        Maker { next: 0, delta: vec![0.0; axes], previous_delta: vec![0.0; axes] }
     }
-    // Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
-    // N + 10 is taken into account": the current block and `look_ahead` more — blocks of the
-    // program, not the pieces the prediction cuts an arc or a TCP move into.
-    track.finish_counting(machine.cnc.look_ahead.saturating_add(1), |b| blocks.written.get(b).copied().unwrap_or(true))
+
+    /// The block it needs next: the ones before the last block with a piece are done with.
+    pub fn next_block(&self) -> usize {
+        self.next
+    }
+
+    /// Adds the pieces of the blocks added to `blocks` since the last call.
+    pub fn extend(&mut self, blocks: &Blocks, machine: &Machine, track: &mut TrackBuilder) {
+        while self.next < blocks.len() {
+            let i = self.next;
+            self.next += 1;
+            track.before(blocks.stop_before[i], blocks.dwell_before[i]);
+            let nominal = blocks.nominal[i];
+            if nominal <= 0.0 {
+                continue; // nothing moves
+            }
+            blocks.delta(i, &mut self.delta);
+            let piece = piece(blocks, machine, i, &self.delta, nominal);
+            let previous = track.last_block();
+            let mut why = blocks.junction_limit(previous, i);
+            let corner = match previous {
+                // Two blocks of one arc meet without a corner: at the arc's own speed, as a share
+                // of the feed.
+                Some(previous) if !track.stop_pending() && blocks.same_arc(previous, i) => {
+                    why = Limit::Curvature;
+                    crate::corner::arc_speed(machine, blocks.radius[i]) / blocks.nominal_tip_feed(i).max(1e-12)
+                }
+                Some(previous) if !track.stop_pending() => {
+                    blocks.delta(previous, &mut self.previous_delta);
+                    // In programmed time a block's axis rates are ΔP / T and its tip covers its
+                    // nominal tip feed per unit.
+                    let tip = blocks.nominal_tip_feed(previous).max(blocks.nominal_tip_feed(i));
+                    junction_cap(
+                        machine,
+                        &blocks.direction(previous),
+                        &blocks.direction(i),
+                        tip,
+                        (&self.previous_delta, blocks.nominal[previous]),
+                        (&self.delta, nominal),
+                    )
+                }
+                _ => f64::INFINITY,
+            };
+            track.push(piece, i, corner, why, blocks.written[i]);
+        }
+    }
 }
 
 /// The caps of block `i`, in programmed time.

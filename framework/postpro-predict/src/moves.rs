@@ -15,6 +15,8 @@ use postpro_kin::{StepKind, bspline};
 use postpro_machine::model::{AxisKind, Machine};
 use postpro_motion::{BlockKind as MotionKind, FeedWord, Position};
 
+use crate::window::Window;
+
 /// How the CNC turns the programmed feed into the duration of a block.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Timing {
@@ -59,51 +61,52 @@ pub struct SplineRun {
     pub params: Vec<f64>,
 }
 
-/// The blocks of a program, column-wise. Block `i` moves from `position(i)` to `position(i + 1)`.
+/// The blocks of a program, column-wise, by position in the program: a streamed prediction holds
+/// a window of them (see [`Window`]). Block `i` moves from `position(i)` to `position(i + 1)`.
 #[derive(Clone, Debug, Default)]
 pub struct Blocks {
     /// Number of axes.
     pub axes: usize,
     /// Axis values at the start and after every block (`(len + 1) × axes`; mm, rad).
-    pub positions: Vec<f64>,
+    pub positions: Window<f64>,
     /// The tool tip in the part frame at the start and after every block (mm).
-    pub tips: Vec<nalgebra::Point3<f64>>,
+    pub tips: Window<nalgebra::Point3<f64>>,
     /// The tool axis in the part frame at the start and after every block.
-    pub tool_axes: Vec<nalgebra::Unit<Vector3<f64>>>,
+    pub tool_axes: Window<nalgebra::Unit<Vector3<f64>>>,
     /// Tip length of each block (mm).
-    pub length: Vec<f64>,
+    pub length: Window<f64>,
     /// Programmed feed of each block (mm/s); 0 for rapids.
-    pub feed: Vec<f64>,
+    pub feed: Window<f64>,
     /// Nominal duration of each block at the programmed feed (s).
-    pub nominal: Vec<f64>,
+    pub nominal: Window<f64>,
     /// The kind of each block.
-    pub kind: Vec<BlockKind>,
+    pub kind: Window<BlockKind>,
     /// True when the CNC stops exactly before the block (rapids, tool changes, stops, dwells).
-    pub stop_before: Vec<bool>,
+    pub stop_before: Window<bool>,
     /// Dwell before the block (s).
-    pub dwell_before: Vec<f64>,
+    pub dwell_before: Window<f64>,
     /// Index of the block's end step in [`Solved::steps`].
-    pub step: Vec<usize>,
+    pub step: Window<usize>,
     /// True when the block ends on a CL point (not on a point added by linearization).
-    pub cl: Vec<bool>,
+    pub cl: Window<bool>,
     /// True when the block is one of the NC program's: false for the points within an arc and
     /// the linearization points a TCP program leaves to the controller (the prediction follows
     /// them all the same).
-    pub written: Vec<bool>,
+    pub written: Window<bool>,
     /// The B-splines of the program, in order, each over a run of consecutive blocks.
-    pub splines: Vec<SplineRun>,
+    pub splines: Window<SplineRun>,
     /// Where an assumption was made (a feed per revolution without a spindle speed, no feed).
     pub notes: Vec<Note>,
     /// True for a feed block that moves the tip along the tool axis (within 1°): a plunge, or a
     /// retract at feed.
-    pub along_axis: Vec<bool>,
+    pub along_axis: Window<bool>,
     /// The operation of each block (index into [`Self::operations`]).
-    pub operation: Vec<u32>,
+    pub operation: Window<u32>,
     /// The circular arc each block lies on (numbered from 1, in program order; 0: a straight
     /// block). Consecutive blocks of one arc meet without a corner.
-    pub arc: Vec<u32>,
+    pub arc: Window<u32>,
     /// The radius of that arc (mm; infinite for a straight block).
-    pub radius: Vec<f64>,
+    pub radius: Window<f64>,
     /// The names of the CL file's operations that have blocks, in order (`OperationStart`
     /// items: NX `TOOL PATH/`, CAMWorks `OPFEATSTART`, …); an empty name for the blocks before
     /// the first one, or of an operation without a name.
@@ -111,9 +114,9 @@ pub struct Blocks {
 }
 
 impl Blocks {
-    /// Number of blocks.
+    /// Number of blocks (of the whole program so far, held or not).
     pub fn len(&self) -> usize {
-        self.length.len()
+        self.length.end()
     }
 
     /// True when there is no block.
@@ -123,7 +126,34 @@ impl Blocks {
 
     /// The axis values before block `i` (after block `i - 1`).
     pub fn position(&self, i: usize) -> &[f64] {
-        &self.positions[i * self.axes..(i + 1) * self.axes]
+        self.positions.slice(i * self.axes..(i + 1) * self.axes)
+    }
+
+    /// Forgets the blocks before block `i` (their positions too; block `i`'s start is kept).
+    pub fn forget_before(&mut self, i: usize) {
+        self.positions.forget_before(i * self.axes);
+        self.tips.forget_before(i);
+        self.tool_axes.forget_before(i);
+        self.length.forget_before(i);
+        self.feed.forget_before(i);
+        self.nominal.forget_before(i);
+        self.kind.forget_before(i);
+        self.stop_before.forget_before(i);
+        self.dwell_before.forget_before(i);
+        self.step.forget_before(i);
+        self.cl.forget_before(i);
+        self.written.forget_before(i);
+        self.along_axis.forget_before(i);
+        self.operation.forget_before(i);
+        self.arc.forget_before(i);
+        self.radius.forget_before(i);
+        let runs = (self.splines.base()..self.splines.end()).take_while(|&r| {
+            let run = &self.splines[r];
+            run.first + run.poses.len() - 1 <= i
+        });
+        if let Some(r) = runs.last() {
+            self.splines.forget_before(r + 1);
+        }
     }
 
     /// The axis displacement of block `i`.
@@ -177,24 +207,54 @@ impl Blocks {
 /// The blocks of a motion program, each with its programmed feed, timed as `timing` says for
 /// feeds per minute.
 pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timing) -> Blocks {
-    let mut out = Blocks { axes: machine.axes.len(), ..Blocks::default() };
-    let mut state = State {
-        stop: true,
-        dwell: 0.0,
-        rpm: None,
-        feed: None,
-        started: false,
-        operation: None,
-        arc: (0, f64::INFINITY),
-        via: false,
-    };
-    let mut arcs = 0;
+    let mut out = Blocks::new(machine);
+    let mut reader = Reader::new(timing);
     for block in &program.blocks {
+        reader.block(&mut out, machine, block);
+    }
+    out
+}
+
+impl Blocks {
+    /// No blocks yet, for `machine`.
+    pub fn new(machine: &Machine) -> Blocks {
+        Blocks { axes: machine.axes.len(), ..Blocks::default() }
+    }
+}
+
+/// Reads the blocks of a motion program one at a time (see [`blocks`]).
+#[derive(Debug)]
+pub struct Reader {
+    timing: Timing,
+    state: State,
+    /// Arcs so far.
+    arcs: u32,
+}
+
+impl Reader {
+    /// A reader timing feeds per minute as `timing` says.
+    pub fn new(timing: Timing) -> Reader {
+        let state = State {
+            stop: true,
+            dwell: 0.0,
+            rpm: None,
+            feed: None,
+            started: false,
+            operation: None,
+            arc: (0, f64::INFINITY),
+            via: false,
+        };
+        Reader { timing, state, arcs: 0 }
+    }
+
+    /// The blocks of the next block of the motion program, added to `out`.
+    pub fn block(&mut self, out: &mut Blocks, machine: &Machine, block: &postpro_motion::Block) {
+        let (timing, state) = (self.timing, &mut self.state);
         match &block.kind {
-            MotionKind::Rapid(rapid) => push_block(&mut out, machine, timing, &rapid.to, Feed::Rapid, &mut state),
+            MotionKind::Rapid(rapid) => push_block(out, machine, timing, &rapid.to, Feed::Rapid, state),
             MotionKind::MachineRetract(retract) => {
                 state.stop = true;
-                push_block(&mut out, machine, timing, &retract.to, Feed::Rapid, &mut state);
+                push_block(out, machine, timing, &retract.to, Feed::Rapid, state);
             }
             MotionKind::Arc(arc) => {
                 let feed = match arc.feed {
@@ -202,14 +262,14 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
                     FeedWord::PerRevolution(f) => Feed::PerRevolution(f),
                     FeedWord::InverseTime(f) => Feed::InverseTime(f, 1 + arc.via.len()),
                 };
-                arcs += 1;
-                state.arc = (arcs, arc.radius);
+                self.arcs += 1;
+                state.arc = (self.arcs, arc.radius);
                 state.via = true;
                 for via in &arc.via {
-                    push_block(&mut out, machine, timing, via, feed, &mut state);
+                    push_block(out, machine, timing, via, feed, state);
                 }
                 state.via = false;
-                push_block(&mut out, machine, timing, &arc.to, feed, &mut state);
+                push_block(out, machine, timing, &arc.to, feed, state);
                 state.arc = (0, f64::INFINITY);
             }
             MotionKind::Linear(linear) => {
@@ -220,10 +280,10 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
                 };
                 state.via = true;
                 for via in &linear.via {
-                    push_block(&mut out, machine, timing, via, feed, &mut state);
+                    push_block(out, machine, timing, via, feed, state);
                 }
                 state.via = false;
-                push_block(&mut out, machine, timing, &linear.to, feed, &mut state);
+                push_block(out, machine, timing, &linear.to, feed, state);
             }
             MotionKind::Cycle(cycle) => {
                 let feed = match cycle.feed {
@@ -236,20 +296,14 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
                         state.stop = true;
                         state.dwell += m.dwell;
                     }
-                    push_block(
-                        &mut out,
-                        machine,
-                        Timing::TipFeed,
-                        &m.to,
-                        if m.rapid { Feed::Rapid } else { feed },
-                        &mut state,
-                    );
+                    let feed = if m.rapid { Feed::Rapid } else { feed };
+                    push_block(out, machine, Timing::TipFeed, &m.to, feed, state);
                 }
             }
             MotionKind::Spline(spline) => {
                 let first = out.len();
                 for at in &spline.points {
-                    push_block(&mut out, machine, Timing::TipFeed, at, Feed::PerMinute(spline.feed), &mut state);
+                    push_block(out, machine, Timing::TipFeed, at, Feed::PerMinute(spline.feed), state);
                 }
                 if out.len() > first {
                     out.splines.push(SplineRun {
@@ -263,7 +317,6 @@ pub fn blocks(program: &postpro_motion::Program, machine: &Machine, timing: Timi
             other => state.item(other),
         }
     }
-    out
 }
 
 /// The feed of a block as the motion program gives it.
@@ -279,6 +332,7 @@ enum Feed {
 }
 
 /// What the blocks between moves leave for the next block.
+#[derive(Debug)]
 struct State {
     stop: bool,
     dwell: f64,
@@ -349,7 +403,9 @@ fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position
             machine.cnc.feed_max / 60.0
         }
     };
-    let (a, b) = (out.position(i).to_vec(), to.axes.as_slice());
+    let mut a = [0.0; postpro_kin::MAX_AXES];
+    a[..out.axes].copy_from_slice(out.position(i));
+    let (a, b) = (&a[..out.axes], to.axes.as_slice());
     // The time at the axes' own speeds: a rapid's duration, and the floor of every block.
     let at_axis_speed =
         machine.axes.iter().zip(a.iter().zip(b)).map(|(ax, (x, y))| (y - x).abs() / ax.vmax).fold(0.0, f64::max);

@@ -14,8 +14,13 @@
 //! junction that braking could reach. The result starts and ends at rest and never exceeds a cap
 //! (up to rounding); how far it is from the time-optimal motion is the switching error of one
 //! period, measured in the tests.
+//!
+//! The track may be streamed: pieces are added as the program is read, and the stepper goes as
+//! far as what it holds lets it decide exactly as it would on the whole track (every junction
+//! within braking reach and within the window known), then waits for more ([`Stepper::go`]).
 
 use crate::profile::speed_change;
+use crate::window::Window;
 
 /// What holds the feed back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -83,32 +88,77 @@ pub struct Junction {
 }
 
 /// The path as the planner sees it. `junctions[i]` ends `pieces[i]`; the last one is a stop.
+/// Pieces are added at the end while the track is built ([`TrackBuilder`]); a streamed
+/// prediction forgets the ones behind the motion.
 #[derive(Clone, Debug, Default)]
 pub struct Track {
     /// The pieces, each of positive length.
-    pub pieces: Vec<Piece>,
-    /// One per piece.
-    pub junctions: Vec<Junction>,
-    /// Pieces the CNC sees ahead, the current one included (`usize::MAX`: all).
+    pub pieces: Window<Piece>,
+    /// One per piece; the last one is final only once the next piece is added or the track is
+    /// complete.
+    pub junctions: Window<Junction>,
+    /// Pieces the CNC sees ahead, the current one included (`usize::MAX`: all), counting only the
+    /// pieces of [`Self::counted`].
     pub window: usize,
-    /// Per piece, the last piece the CNC sees from it, where pieces are not all blocks of the
-    /// program (an arc's pieces are one block); empty: `window` pieces.
-    pub window_end: Vec<usize>,
+    /// The pieces that count towards the window, in order (each a block of the program: an arc's
+    /// pieces are one block).
+    pub counted: Window<usize>,
     /// Dwell before the first piece (s).
     pub dwell_at_start: f64,
+    /// No piece will be added.
+    pub complete: bool,
 }
 
 impl Track {
-    /// The cap at junction `i` with the pieces on both sides, and what gives it.
+    /// A whole track (every piece counts towards the window).
+    pub fn new(pieces: Vec<Piece>, junctions: Vec<Junction>, window: usize, dwell_at_start: f64) -> Track {
+        let mut track = Track { window, dwell_at_start, complete: true, ..Track::default() };
+        for (i, (p, j)) in pieces.into_iter().zip(junctions).enumerate() {
+            track.pieces.push(p);
+            track.junctions.push(j);
+            track.counted.push(i);
+        }
+        track
+    }
+
+    /// Number of pieces (added so far).
+    pub fn len(&self) -> usize {
+        self.pieces.end()
+    }
+
+    /// True without pieces.
+    pub fn is_empty(&self) -> bool {
+        self.pieces.is_empty()
+    }
+
+    /// True when junction `i` is final: the piece after it is there, or the track is complete.
+    fn known(&self, i: usize) -> bool {
+        i + 1 < self.len() || (self.complete && i < self.len())
+    }
+
+    /// The cap at junction `i` with the pieces on both sides, and what gives it (a stop at the
+    /// end of a complete track). Junction `i` must be [`known`](Self::known).
     fn junction_cap(&self, i: usize) -> (f64, Limit) {
+        if i + 1 == self.len() {
+            return (0.0, Limit::Stop);
+        }
         let j = self.junctions[i];
         let mut best = (j.cap, j.limit);
-        for p in [Some(i), (i + 1 < self.pieces.len()).then_some(i + 1)].into_iter().flatten() {
+        for p in [i, i + 1] {
             if self.pieces[p].velocity < best.0 {
                 best = (self.pieces[p].velocity, self.pieces[p].velocity_limit);
             }
         }
         best
+    }
+
+    /// Forgets the pieces before piece `i`.
+    pub fn forget_before(&mut self, i: usize) {
+        self.pieces.forget_before(i);
+        self.junctions.forget_before(i);
+        let counted = &self.counted;
+        let ordinal = counted.base() + counted.held().partition_point(|&p| p < i);
+        self.counted.forget_before(ordinal);
     }
 }
 
@@ -116,23 +166,18 @@ impl Track {
 /// stop and its dwell, or a corner's cap), and the block each piece stands for.
 #[derive(Debug, Default)]
 pub struct TrackBuilder {
-    pieces: Vec<Piece>,
-    junctions: Vec<Junction>,
-    owner: Vec<usize>,
+    /// The track built so far.
+    pub track: Track,
+    /// The block of each piece.
+    pub owner: Window<usize>,
     stop_pending: bool,
     dwell_pending: f64,
-    dwell_at_start: f64,
 }
 
 impl TrackBuilder {
-    /// Room for `n` pieces.
-    pub fn with_capacity(n: usize) -> TrackBuilder {
-        TrackBuilder {
-            pieces: Vec::with_capacity(n),
-            junctions: Vec::with_capacity(n),
-            owner: Vec::with_capacity(n),
-            ..TrackBuilder::default()
-        }
+    /// A builder of a track seeing `window` pieces ahead (of those that count).
+    pub fn new(window: usize) -> TrackBuilder {
+        TrackBuilder { track: Track { window, ..Track::default() }, ..TrackBuilder::default() }
     }
 
     /// Notes what stands before the next piece: an exact stop, a dwell (s).
@@ -153,71 +198,54 @@ impl TrackBuilder {
 
     /// Pieces so far.
     pub fn len(&self) -> usize {
-        self.pieces.len()
+        self.track.len()
     }
 
     /// True before the first piece.
     pub fn is_empty(&self) -> bool {
-        self.pieces.is_empty()
+        self.track.is_empty()
     }
 
-    /// Adds `piece` for `block`; the junction before it is an exact stop when one is pending,
-    /// else capped at `corner` for the reason `why` (a corner, a plunge).
-    pub fn push(&mut self, piece: Piece, block: usize, corner: f64, why: Limit) {
-        if let Some(last) = self.junctions.last_mut() {
+    /// Adds `piece` for `block` (counted towards the look-ahead window when `counts`); the
+    /// junction before it is an exact stop when one is pending, else capped at `corner` for the
+    /// reason `why` (a corner, a plunge).
+    pub fn push(&mut self, piece: Piece, block: usize, corner: f64, why: Limit, counts: bool) {
+        let track = &mut self.track;
+        if let Some(last) = track.junctions.last_mut() {
             *last = if self.stop_pending {
                 Junction { cap: 0.0, limit: Limit::Stop, dwell: self.dwell_pending }
             } else {
                 Junction { cap: corner, limit: why, dwell: 0.0 }
             };
         } else {
-            self.dwell_at_start = self.dwell_pending;
+            track.dwell_at_start = self.dwell_pending;
         }
         self.stop_pending = false;
         self.dwell_pending = 0.0;
-        self.pieces.push(piece);
-        self.junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
+        if counts || track.window == usize::MAX {
+            track.counted.push(track.pieces.end());
+        }
+        track.pieces.push(piece);
+        track.junctions.push(Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 });
         self.owner.push(block);
     }
 
-    /// The track seeing `window` pieces ahead, and the block of each piece; a dwell after the
-    /// last piece is spent at its end.
-    pub fn finish(mut self, window: usize) -> (Track, Vec<usize>) {
-        if let Some(last) = self.junctions.last_mut() {
-            last.dwell = self.dwell_pending;
+    /// No piece will follow: a dwell after the last piece is spent at its end; with no piece at
+    /// all, it is the dwell at the start.
+    pub fn complete(&mut self) {
+        let track = &mut self.track;
+        match track.junctions.last_mut() {
+            Some(last) => last.dwell = self.dwell_pending,
+            None => track.dwell_at_start = self.dwell_pending,
         }
-        let track = Track {
-            pieces: self.pieces,
-            junctions: self.junctions,
-            window,
-            window_end: Vec::new(),
-            dwell_at_start: self.dwell_at_start,
-        };
-        (track, self.owner)
+        self.dwell_pending = 0.0;
+        track.complete = true;
     }
 
-    /// [`TrackBuilder::finish`] with a window of `window` blocks of the program: a piece counts
-    /// when `counts(its block)` (a point within an arc block, or a TCP program's linearization
-    /// point, is no block of the program).
-    pub fn finish_counting(self, window: usize, counts: impl Fn(usize) -> bool) -> (Track, Vec<usize>) {
-        let (mut track, owner) = self.finish(window);
-        if window == usize::MAX || owner.iter().all(|&b| counts(b)) {
-            return (track, owner);
-        }
-        // A piece that does not count belongs to the block of the next one that does: the window
-        // from piece k ends at the `window`-th counted piece from k on (or at the end).
-        let n = owner.len();
-        let counted: Vec<usize> = (0..n).filter(|&k| counts(owner[k])).collect();
-        let mut next = 0; // the first counted piece at or after k
-        let mut ends = Vec::with_capacity(n);
-        for k in 0..n {
-            while next < counted.len() && counted[next] < k {
-                next += 1;
-            }
-            ends.push(counted.get(next + window - 1).copied().unwrap_or(n - 1));
-        }
-        track.window_end = ends;
-        (track, owner)
+    /// Forgets the pieces before piece `i`.
+    pub fn forget_before(&mut self, i: usize) {
+        self.track.forget_before(i);
+        self.owner.forget_before(i);
     }
 }
 
@@ -260,33 +288,31 @@ pub trait Observer {
     fn crossing(&mut self, piece: usize, t: f64, v: f64, limit: Limit);
 }
 
-/// Runs the motion along `track` with period `h` (s), reporting to `observer`. Returns the
-/// total time (s), dwells included.
+/// Runs the motion along the whole `track` with period `h` (s), reporting to `observer`. Returns
+/// the total time (s), dwells included.
 pub fn run(track: &Track, h: f64, observer: &mut dyn Observer) -> f64 {
-    let n = track.pieces.len();
-    if n == 0 {
-        return track.dwell_at_start;
-    }
-    // Junction positions and caps.
-    let mut ends = Vec::with_capacity(n);
-    let mut caps = Vec::with_capacity(n);
-    let mut total = 0.0;
-    for i in 0..n {
-        total += track.pieces[i].length;
-        ends.push(total);
-        caps.push(if i + 1 == n { (0.0, Limit::Stop) } else { track.junction_cap(i) });
-    }
-    let mut s = Stepper { track, ends, caps, h, t: track.dwell_at_start, u: 0.0, v: 0.0, a: 0.0, k: 0, cruise: None };
-    observer.sample(&Sample::at_rest(s.t, 0.0, 0.0, 0, Limit::Stop, true));
-    s.go(observer);
-    // A dwell after the last piece is spent at its end.
-    s.t + track.junctions[n - 1].dwell
+    let mut stepper = Stepper::new(h);
+    stepper.go(track, observer);
+    stepper.time(track)
 }
 
-struct Stepper<'a> {
-    track: &'a Track,
-    ends: Vec<f64>,
-    caps: Vec<(f64, Limit)>,
+/// How far [`Stepper::go`] got.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// It needs more pieces to decide the next step.
+    Waiting,
+    /// The motion is at the end of the complete track.
+    Done,
+}
+
+/// The interpolator's state along a track that may grow: where the motion is and what it has
+/// computed of the pieces (their ends in the parameter, the caps at their junctions).
+#[derive(Clone, Debug)]
+pub struct Stepper {
+    /// Where each piece ends in the parameter.
+    ends: Window<f64>,
+    /// The cap at each known junction.
+    caps: Window<(f64, Limit)>,
     h: f64,
     t: f64,
     u: f64,
@@ -294,9 +320,15 @@ struct Stepper<'a> {
     a: f64,
     /// Current piece.
     k: usize,
+    /// The first counted piece at or after `k`, as an ordinal of [`Track::counted`].
+    counted: usize,
     /// Cruising on this piece at its cap, nothing ahead within braking reach until the
     /// parameter reaches this value: the next steps need no scan of the junctions.
     cruise: Option<(usize, f64)>,
+    started: bool,
+    done: bool,
+    /// Enough for any motion: a run away loop would be a bug; stop it rather than hang.
+    guard: u64,
 }
 
 /// The state after `h` at constant jerk `j`.
@@ -305,17 +337,95 @@ fn advance(u: f64, v: f64, a: f64, j: f64, h: f64) -> (f64, f64, f64) {
     (u + v * h + a * h * h / 2.0 + j * h * h * h / 6.0, v + a * h + j * h * h / 2.0, a + j * h)
 }
 
-impl Stepper<'_> {
-    fn go(&mut self, observer: &mut dyn Observer) {
-        let n = self.track.pieces.len();
-        let end = self.ends[n - 1];
-        // Enough for any motion: a run away loop would be a bug; stop it rather than hang.
-        let mut guard: u64 = 0;
+impl Stepper {
+    /// At rest at the start of a track, with period `h` (s).
+    pub fn new(h: f64) -> Stepper {
+        Stepper {
+            ends: Window::default(),
+            caps: Window::default(),
+            h,
+            t: 0.0,
+            u: 0.0,
+            v: 0.0,
+            a: 0.0,
+            k: 0,
+            counted: 0,
+            cruise: None,
+            started: false,
+            done: false,
+            guard: 0,
+        }
+    }
+
+    /// The piece the motion is on: the pieces before it are no longer needed.
+    pub fn piece(&self) -> usize {
+        self.k
+    }
+
+    /// The time so far (s); at the end, the total time, dwells included.
+    pub fn time(&self, track: &Track) -> f64 {
+        if !self.started {
+            return track.dwell_at_start;
+        }
+        match track.junctions.last() {
+            Some(last) if self.done => self.t + last.dwell,
+            _ => self.t,
+        }
+    }
+
+    /// Forgets what it computed of the pieces before piece `i`.
+    pub fn forget_before(&mut self, i: usize) {
+        self.ends.forget_before(i);
+        self.caps.forget_before(i);
+    }
+
+    /// Takes in the pieces and junctions added to `track` since the last call.
+    fn extend(&mut self, track: &Track) {
+        while self.ends.end() < track.len() {
+            let i = self.ends.end();
+            let before = if i == 0 { 0.0 } else { self.ends[i - 1] };
+            self.ends.push(before + track.pieces[i].length);
+        }
+        while self.caps.end() < track.len() && track.known(self.caps.end()) {
+            let i = self.caps.end();
+            self.caps.push(track.junction_cap(i));
+        }
+    }
+
+    /// Steps the motion along `track` as far as what it holds lets it decide, reporting to
+    /// `observer`.
+    pub fn go(&mut self, track: &Track, observer: &mut dyn Observer) -> Progress {
+        if self.done {
+            return Progress::Done;
+        }
+        self.extend(track);
+        if track.is_empty() {
+            if track.complete {
+                self.done = true;
+                return Progress::Done;
+            }
+            return Progress::Waiting;
+        }
+        if !self.started {
+            self.started = true;
+            self.t = track.dwell_at_start;
+            observer.sample(&Sample::at_rest(self.t, 0.0, 0.0, 0, Limit::Stop, true));
+        }
+        let progress = self.steps(track, observer);
+        if progress == Progress::Done {
+            self.done = true;
+        }
+        progress
+    }
+
+    fn steps(&mut self, track: &Track, observer: &mut dyn Observer) -> Progress {
         loop {
-            guard += 1;
-            let piece = self.track.pieces[self.k];
+            // The last piece of the track, once it is complete.
+            let n = track.complete.then(|| track.len());
+            let Some((j, limit, ahead)) = self.choose(track) else { return Progress::Waiting };
+            self.guard += 1;
+            let piece = track.pieces[self.k];
             let piece_was = self.k;
-            let (j, limit, ahead) = self.choose();
             if self.caps[self.k].0 <= 0.0
                 && let Some(tau) = final_phase(self.a, j, self.h)
                 && tau <= self.h
@@ -329,16 +439,16 @@ impl Stepper<'_> {
                 observer.crossing(self.k, self.t, 0.0, Limit::Stop);
                 observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, Limit::Stop, true));
                 self.k += 1;
-                if self.k == n {
-                    return;
+                if Some(self.k) == n {
+                    return Progress::Done;
                 }
-                self.t += self.track.junctions[self.k - 1].dwell;
+                self.t += track.junctions[self.k - 1].dwell;
                 continue;
             }
             let (u1, v1, a1) = advance(self.u, self.v, self.a, j, self.h);
             // Crossings of junctions within this step.
             let mut crossed_stop = false;
-            while self.k < n && u1 >= self.ends[self.k] {
+            while self.k < self.ends.end() && u1 >= self.ends[self.k] {
                 let at = self.ends[self.k];
                 let tau = time_to(self.u, self.v, self.a, j, at, self.h);
                 let (_, vc, _) = advance(self.u, self.v, self.a, j, tau);
@@ -364,13 +474,13 @@ impl Stepper<'_> {
             }
             if crossed_stop {
                 observer.sample(&Sample::at_rest(self.t, self.u, j, self.k - 1, Limit::Stop, true));
-                if self.k == n {
-                    return;
+                if Some(self.k) == n {
+                    return Progress::Done;
                 }
-                self.t += self.track.junctions[self.k - 1].dwell;
+                self.t += track.junctions[self.k - 1].dwell;
                 continue;
             }
-            if v1 < 0.0 || (v1 == 0.0 && a1 <= 0.0) || guard > 200_000_000 {
+            if v1 < 0.0 || (v1 == 0.0 && a1 <= 0.0) || self.guard > 200_000_000 {
                 // The speed reaches 0 within this step.
                 let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
                 let (u_rest, _, _) = advance(self.u, self.v, self.a, j, tau);
@@ -381,7 +491,7 @@ impl Stepper<'_> {
                 self.t += tau;
                 self.v = 0.0;
                 self.a = 0.0;
-                if rest > 10.0 * piece.jerk * self.h.powi(3) && guard <= 200_000_000 {
+                if rest > 10.0 * piece.jerk * self.h.powi(3) && self.guard <= 200_000_000 {
                     // Stopped short of a look-ahead window's end: start again from rest.
                     self.u = u_rest;
                     observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
@@ -395,17 +505,18 @@ impl Stepper<'_> {
                 observer.crossing(self.k, self.t, 0.0, why);
                 observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
                 self.k += 1;
-                if self.k == n || self.u >= end {
-                    return;
+                if n.is_some_and(|n| self.k == n || self.u >= self.ends[n - 1]) {
+                    return Progress::Done;
                 }
-                self.t += self.track.junctions[self.k - 1].dwell;
+                self.t += track.junctions[self.k - 1].dwell;
                 continue;
             }
             self.t += self.h;
             self.u = u1;
             // Arrived at the piece's speed cap with the acceleration all but ended: cruise
             // exactly (the rounding of the steps would otherwise make the jerk chatter).
-            let cap = self.track.pieces[self.k.min(n - 1)];
+            let now = self.k.min(track.len() - 1);
+            let cap = track.pieces[now];
             let (v1, a1) = if limit == cap.velocity_limit
                 && (v1 - cap.velocity).abs() <= 1e-6 * cap.velocity
                 && a1.abs() <= 1e-4 * cap.acceleration
@@ -415,35 +526,51 @@ impl Stepper<'_> {
                 (v1, a1)
             };
             self.v = v1;
-            let piece_now = self.k.min(n - 1);
             // Across a junction the axes' accelerations jump with their directions anyway (the
             // corner is rounded within the tolerance): the next piece's caps hold from there,
             // and so does its jerk: a deceleration it could not end before the speed reaches 0,
             // or an acceleration it could not end under its speed cap, is eased at the junction.
-            self.a = if piece_now == piece_was {
+            self.a = if now == piece_was {
                 a1
             } else {
-                let q = &self.track.pieces[piece_now];
+                let q = &track.pieces[now];
                 let low = -(2.0 * q.jerk * v1.max(0.0)).sqrt();
                 let high = (2.0 * q.jerk * (q.velocity - v1).max(0.0)).sqrt();
                 a1.clamp(low.max(-q.acceleration), high.min(q.acceleration))
             };
-            let shown = if v1 >= 0.999 * self.track.pieces[piece_now].velocity {
-                self.track.pieces[piece_now].velocity_limit
-            } else {
-                limit
-            };
+            let shown = if v1 >= 0.999 * track.pieces[now].velocity { track.pieces[now].velocity_limit } else { limit };
             let sample =
-                Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: piece_now, limit: shown, bound: limit, ahead };
+                Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: now, limit: shown, bound: limit, ahead };
             observer.sample(&sample);
         }
     }
 
-    /// The largest jerk for the next step, what bounds it, and whether that is a cap ahead.
-    fn choose(&mut self) -> (f64, Limit, bool) {
+    /// The last piece the CNC sees from the current one (the window's end; the track's end), if
+    /// the track holds it yet; `Some(None)`: no window, the scan goes on to the end.
+    fn window_end(&mut self, track: &Track) -> Option<Option<usize>> {
+        if track.window == usize::MAX {
+            return Some(track.complete.then(|| track.len() - 1));
+        }
+        let counted = &track.counted;
+        while self.counted < counted.end() && counted[self.counted] < self.k {
+            self.counted += 1;
+        }
+        match counted.get(self.counted + track.window - 1) {
+            Some(&end) => Some(Some(end)),
+            None if track.complete => Some(Some(track.len() - 1)),
+            None => None,
+        }
+    }
+
+    /// The largest jerk for the next step, what bounds it, and whether that is a cap ahead;
+    /// `None` when the track does not hold enough yet to say.
+    fn choose(&mut self, track: &Track) -> Option<(f64, Limit, bool)> {
         let h = self.h;
         let (u, v, a) = (self.u, self.v, self.a);
-        let here = &self.track.pieces[self.k];
+        if !track.known(self.k) {
+            return None;
+        }
+        let here = &track.pieces[self.k];
         // Cruising where nothing can bind yet: the same step again.
         if let Some((piece, until)) = self.cruise
             && piece == self.k
@@ -451,17 +578,23 @@ impl Stepper<'_> {
             && v == here.velocity
             && u + v * h < until
         {
-            return (0.0, here.velocity_limit, false);
+            return Some((0.0, here.velocity_limit, false));
         }
-        self.cruise = None;
         // The caps of every piece this step may enter: the jerk and acceleration chosen hold
         // for the whole step, on whichever piece it ends.
-        let mut p = self.track.pieces[self.k];
+        let mut p = track.pieces[self.k];
         let reach = u + v * h + a.max(0.0) * h * h / 2.0 + p.jerk * h * h * h / 6.0;
         let mut m = self.k;
-        while m + 1 < self.track.pieces.len() && self.ends[m] < reach {
+        loop {
+            // Every junction this step may cross must be known.
+            if !track.known(m) {
+                return None;
+            }
+            if m + 1 >= track.len() || self.ends[m] >= reach {
+                break;
+            }
             m += 1;
-            let q = &self.track.pieces[m];
+            let q = &track.pieces[m];
             if q.jerk < p.jerk {
                 p.jerk = q.jerk;
                 p.jerk_limit = q.jerk_limit;
@@ -471,6 +604,7 @@ impl Stepper<'_> {
                 p.acceleration_limit = q.acceleration_limit;
             }
         }
+        let last = self.window_end(track)?;
         let p = &p;
         let mut j = p.jerk;
         let mut limit = p.jerk_limit;
@@ -488,19 +622,15 @@ impl Stepper<'_> {
             limit = p.velocity_limit;
         }
         // The strongest braking: the jerk, and the current piece's acceleration (a junction
-        // into a piece with less clamps the acceleration there, see `go`).
-        let floor = (-p.jerk).max((-self.track.pieces[self.k].acceleration - a) / h);
+        // into a piece with less clamps the acceleration there, see `steps`).
+        let floor = (-p.jerk).max((-track.pieces[self.k].acceleration - a) / h);
         if j <= floor {
-            return (floor, limit, false);
+            self.cruise = None;
+            return Some((floor, limit, false));
         }
-        // Junctions ahead, within the window and within braking reach.
-        let pieces = &self.track.pieces;
-        let n = pieces.len();
-        let last = match self.track.window_end.get(self.k) {
-            Some(&end) => end,
-            None if self.track.window == usize::MAX => n - 1,
-            None => (self.k + self.track.window - 1).min(n - 1),
-        };
+        // Junctions ahead, within the window and within braking reach: decided on a copy of the
+        // state, committed once the track held all it needed.
+        let pieces = &track.pieces;
         let (mut u1, mut v1, mut a1) = advance(u, v, a, j, h);
         // The limits of the pieces up to junction m: the braking happens on them. The piece after
         // the junction only asks that the acceleration be within its own when the motion gets
@@ -511,8 +641,14 @@ impl Stepper<'_> {
         // bind: what a cruise may skip.
         let mut comes_into_reach = None;
         let mut could_bind = false;
-        #[allow(clippy::needless_range_loop)] // m indexes pieces, ends and caps alike
-        for m in self.k..=last {
+        let mut m = self.k;
+        loop {
+            if last.is_some_and(|last| m > last) {
+                break;
+            }
+            if !track.known(m) {
+                return None; // the scan needs a junction the track does not hold yet
+            }
             if m > self.k && (pieces[m].acceleration < a_path || pieces[m].jerk < j_path) {
                 a_path = a_path.min(pieces[m].acceleration);
                 j_path = j_path.min(pieces[m].jerk);
@@ -527,8 +663,11 @@ impl Stepper<'_> {
                 break;
             }
             // The window's end, unless the program stops there anyway.
-            let (cap, why) =
-                if m == last && m + 1 < n && self.caps[m].0 > 0.0 { (0.0, Limit::LookAhead) } else { self.caps[m] };
+            let (cap, why) = if Some(m) == last && m + 1 < track.len() && self.caps[m].0 > 0.0 {
+                (0.0, Limit::LookAhead)
+            } else {
+                self.caps[m]
+            };
             // The motion stops at a junction capped at 0: nothing after it matters.
             let stop = cap <= 0.0;
             // A cap the speed cannot reach is no constraint.
@@ -537,6 +676,7 @@ impl Stepper<'_> {
                 if stop {
                     break;
                 }
+                m += 1;
                 continue;
             }
             could_bind = true;
@@ -566,12 +706,13 @@ impl Stepper<'_> {
             if stop {
                 break;
             }
+            m += 1;
         }
-        if j == 0.0 && a == 0.0 && v == p.velocity && !could_bind {
+        self.cruise = (j == 0.0 && a == 0.0 && v == p.velocity && !could_bind).then(|| {
             let until = comes_into_reach.unwrap_or(f64::NEG_INFINITY).min(self.ends[self.k]) - v * h;
-            self.cruise = Some((self.k, until));
-        }
-        (j, limit, ahead)
+            (self.k, until)
+        });
+        Some((j, limit, ahead))
     }
 }
 
@@ -775,13 +916,12 @@ mod tests {
     }
 
     fn single(length: f64, v: f64, a: f64, j: f64, h: f64) -> (f64, Vec<Sample>) {
-        let track = Track {
-            pieces: vec![piece(length, v, a, j)],
-            junctions: vec![Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 }],
-            window: 10,
-            window_end: Vec::new(),
-            dwell_at_start: 0.0,
-        };
+        let track = Track::new(
+            vec![piece(length, v, a, j)],
+            vec![Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 }],
+            10,
+            0.0,
+        );
         let mut r = Record(Vec::new());
         let t = run(&track, h, &mut r);
         (t, r.0)
@@ -847,14 +987,8 @@ mod tests {
         let mut junctions = vec![Junction { cap: f64::INFINITY, limit: Limit::Corner, dwell: 0.0 }; 200];
         junctions[99] = corner;
         junctions[199] = stop;
-        let wide = Track {
-            pieces: pieces.clone(),
-            junctions: junctions.clone(),
-            window: usize::MAX,
-            window_end: Vec::new(),
-            dwell_at_start: 0.0,
-        };
-        let narrow = Track { pieces, junctions, window: 5, window_end: Vec::new(), dwell_at_start: 0.0 };
+        let wide = Track::new(pieces.clone(), junctions.clone(), usize::MAX, 0.0);
+        let narrow = Track::new(pieces, junctions, 5, 0.0);
         let mut crossing_speed = Vec::new();
         struct Crossings<'a>(&'a mut Vec<(usize, f64)>);
         impl Observer for Crossings<'_> {

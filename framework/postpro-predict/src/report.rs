@@ -23,6 +23,7 @@ use std::collections::BTreeMap;
 use crate::moves::{BlockKind, Blocks};
 use crate::plan::{Limit, Observer, Sample, Track};
 use crate::vpop::{Curves, Segment};
+use crate::window::Window;
 use postpro_kin::{Joints, Kinematics};
 use postpro_machine::model::Machine;
 
@@ -263,71 +264,87 @@ impl Prediction {
     /// operation, that lose at least `min_loss` apart from exact stops; at most
     /// `max_per_operation` per operation, the worst kept.
     pub fn marks(&self, rules: &MarkRules) -> Vec<Mark> {
-        let mut runs: Vec<Mark> = Vec::new();
-        // Per run: the time lost by each block's main cause.
-        let mut by_cause: Vec<BTreeMap<Limit, f64>> = Vec::new();
-        for op in 0..self.operations.len() {
-            let (first, last) = (self.operations[op].first, self.operations[op].last);
-            let mut open = false;
-            for i in first..=last {
-                let b = &self.blocks[i];
-                if b.kind == BlockKind::Reorientation {
-                    continue; // neither breaks nor extends a run
-                }
-                let slow = b.kind == BlockKind::Feed && b.min_ratio_between_stops() < rules.threshold;
-                if !slow {
-                    open = false;
-                    continue;
-                }
-                let ratio = b.min_ratio_between_stops();
-                let own = b.lost - b.stop_lost;
-                match runs.last_mut() {
-                    Some(run) if open => {
-                        run.last = i;
-                        run.blocks += usize::from(self.blocks[i].written);
-                        run.ratio = run.ratio.min(ratio);
-                        run.lost += own;
-                    }
-                    _ => {
-                        runs.push(Mark {
-                            number: 0,
-                            first: i,
-                            last: i,
-                            blocks: usize::from(b.written),
-                            ratio,
-                            cause: b.cause,
-                            lost: own,
-                            operation: op,
-                        });
-                        by_cause.push(BTreeMap::new());
-                        open = true;
-                    }
-                }
-                if let Some(causes) = by_cause.last_mut() {
-                    *causes.entry(b.cause).or_default() += own;
-                }
+        let mut finder = MarkFinder::new(*rules);
+        for (op, o) in self.operations.iter().enumerate() {
+            for i in o.first..=o.last {
+                finder.block(i, &self.blocks[i], op);
             }
         }
-        for (run, causes) in runs.iter_mut().zip(&by_cause) {
-            if let Some((limit, _)) = causes.iter().max_by(|a, b| a.1.total_cmp(b.1)) {
-                run.cause = *limit;
-            }
+        finder.finish()
+    }
+}
+
+/// Finds the marks of [`Prediction::marks`] as block results come, in program order: it holds
+/// the run being read and the worst runs of each operation, not the blocks.
+#[derive(Clone, Debug)]
+pub struct MarkFinder {
+    rules: MarkRules,
+    /// The run being read, and the time it lost by each block's main cause.
+    open: Option<(Mark, BTreeMap<Limit, f64>)>,
+    /// Per operation, the runs kept so far, the worst first (ties in program order).
+    kept: Vec<Vec<Mark>>,
+}
+
+impl MarkFinder {
+    /// No block yet.
+    pub fn new(rules: MarkRules) -> MarkFinder {
+        MarkFinder { rules, open: None, kept: Vec::new() }
+    }
+
+    /// Block `i`, of operation `op`, predicted as `b`.
+    pub fn block(&mut self, i: usize, b: &BlockResult, op: usize) {
+        if self.open.as_ref().is_some_and(|(run, _)| run.operation != op) {
+            self.close();
         }
-        runs.retain(|r| r.lost >= rules.min_loss);
-        // The worst of each operation, then back in program order.
-        runs.sort_by(|a, b| a.operation.cmp(&b.operation).then(b.lost.total_cmp(&a.lost)));
-        let mut kept: Vec<Mark> = Vec::with_capacity(runs.len());
-        for run in runs {
-            let count = kept.iter().rev().take_while(|k| k.operation == run.operation).count();
-            if count < rules.max_per_operation {
-                kept.push(run);
-            }
+        if b.kind == BlockKind::Reorientation {
+            return; // neither breaks nor extends a run
         }
-        kept.sort_by_key(|m| m.first);
-        for (n, m) in kept.iter_mut().enumerate() {
+        let ratio = b.min_ratio_between_stops();
+        if b.kind != BlockKind::Feed || ratio >= self.rules.threshold {
+            self.close();
+            return;
+        }
+        let own = b.lost - b.stop_lost;
+        let (run, causes) = self.open.get_or_insert_with(|| {
+            let run = Mark { number: 0, first: i, last: i, blocks: 0, ratio, cause: b.cause, lost: 0.0, operation: op };
+            (run, BTreeMap::new())
+        });
+        run.last = i;
+        run.blocks += usize::from(b.written);
+        run.ratio = run.ratio.min(ratio);
+        run.lost += own;
+        *causes.entry(b.cause).or_default() += own;
+    }
+
+    /// Ends the run being read, and keeps it if it is among the worst of its operation.
+    fn close(&mut self) {
+        let Some((mut run, causes)) = self.open.take() else { return };
+        if let Some((limit, _)) = causes.iter().max_by(|a, b| a.1.total_cmp(b.1)) {
+            run.cause = *limit;
+        }
+        if run.lost < self.rules.min_loss {
+            return;
+        }
+        if self.kept.len() <= run.operation {
+            self.kept.resize(run.operation + 1, Vec::new());
+        }
+        let kept = &mut self.kept[run.operation];
+        let at = kept.partition_point(|k| k.lost.total_cmp(&run.lost) != std::cmp::Ordering::Less);
+        if at < self.rules.max_per_operation {
+            kept.insert(at, run);
+            kept.truncate(self.rules.max_per_operation);
+        }
+    }
+
+    /// The marks, in program order, numbered from 1.
+    pub fn finish(mut self) -> Vec<Mark> {
+        self.close();
+        let mut marks: Vec<Mark> = self.kept.into_iter().flatten().collect();
+        marks.sort_by_key(|m| m.first);
+        for (n, m) in marks.iter_mut().enumerate() {
             m.number = n + 1;
         }
-        kept
+        marks
     }
 }
 
@@ -371,29 +388,36 @@ pub fn describe(limit: Limit, machine: &Machine) -> String {
     }
 }
 
-/// Collects the stepper's output into block results, time lost by cause and samples.
-pub(crate) struct Collector<'a> {
-    blocks: &'a Blocks,
-    track: &'a Track,
-    /// The block of each piece.
-    owner: &'a [usize],
+/// Collects the stepper's output into block results, time lost by cause and samples, as the
+/// track grows: what it knows of each piece and block is held in windows, and a block's result
+/// is final once the motion has left it ([`Collector::finalized`]).
+pub(crate) struct Collector {
     /// Start and length of each piece in the parameter.
-    piece_start: Vec<f64>,
-    piece_length: Vec<f64>,
+    piece_start: Window<f64>,
+    piece_length: Window<f64>,
+    /// The parameter at the end of the pieces so far.
+    u_end: f64,
     /// Tip length per unit of the parameter, per block (the tip feed at `u̇ = 1`, mm/s, in
     /// programmed time; 1 on the tip path).
-    scale: Vec<f64>,
+    scale: Window<f64>,
+    /// Parameter length of each block's pieces.
+    span: Window<f64>,
     /// Tip path length at the start of each block.
-    path_start: Vec<f64>,
-    pub(crate) results: Vec<BlockResult>,
+    path_start: Window<f64>,
+    /// The tip path length at the end of the blocks so far.
+    path_end: f64,
+    /// Per block, its result (final before [`Self::finalized`]).
+    pub(crate) results: Window<BlockResult>,
+    /// Blocks whose results are final.
+    pub(crate) finalized: usize,
+    /// Blocks whose pieces are all made and whose figures are set up.
+    prepared: usize,
     /// Time each block was entered.
-    entered: Vec<f64>,
+    entered: Window<f64>,
     /// Lowest `u̇` per block, and lowest apart from exact stops.
-    min_speed: Vec<f64>,
-    min_speed_between_stops: Vec<f64>,
+    min_speed: Window<f64>,
+    min_speed_between_stops: Window<f64>,
     pub(crate) samples: Option<Samples>,
-    kin: Option<&'a dyn Kinematics>,
-    curves: Option<&'a Curves>,
     last_tip: Option<(f64, nalgebra::Point3<f64>)>,
     last_sample: Option<(f64, usize)>,
     pub(crate) length_below: f64,
@@ -403,11 +427,14 @@ pub(crate) struct Collector<'a> {
     /// Per block with pieces: the time the program asks for (its nominal duration and those of
     /// the blocks of no piece before it, which it stands for), its time at the CL file's feed,
     /// and the programmed time per unit of the parameter.
-    asked: Vec<f64>,
-    at_feed: Vec<f64>,
-    rate: Vec<f64>,
+    asked: Window<f64>,
+    at_feed: Window<f64>,
+    rate: Window<f64>,
+    /// The same, summed over the blocks of no piece since the last block with pieces.
+    asked_before: f64,
+    at_feed_before: f64,
     /// The dwell spent at the start of each block.
-    dwell_in: Vec<f64>,
+    dwell_in: Window<f64>,
     split: Split,
     /// Per operation, the time lost by cause.
     causes: Vec<BTreeMap<Limit, (f64, usize)>>,
@@ -440,124 +467,140 @@ struct Split {
     shares: Vec<(Limit, f64)>,
 }
 
-impl<'a> Collector<'a> {
-    pub(crate) fn new(
-        blocks: &'a Blocks,
-        track: &'a Track,
-        owner: &'a [usize],
-        keep_samples: Option<&'a dyn Kinematics>,
-        curves: Option<&'a Curves>,
-        threshold: f64,
-    ) -> Self {
-        let n = blocks.len();
-        let mut piece_start = Vec::with_capacity(owner.len());
-        let mut piece_length = Vec::with_capacity(owner.len());
-        let mut scale = vec![0.0; n];
-        let mut span = vec![0.0; n];
-        let mut dwell_in = vec![0.0; n];
-        let mut u = 0.0;
-        for (p, (piece, &b)) in track.pieces.iter().zip(owner).enumerate() {
-            let l = piece.length;
-            piece_start.push(u);
-            piece_length.push(l);
-            let curve = curves.is_some_and(|c| matches!(c.segments.get(p), Some(Segment::Curve { .. })));
-            // On a spline the parameter is the tip's chord length: about 1 mm of tip per unit.
-            scale[b] = if curve { 1.0 } else { blocks.length[b] / l };
-            if p == 0 || owner[p - 1] != b {
-                dwell_in[b] = if p == 0 { track.dwell_at_start } else { track.junctions[p - 1].dwell };
-            }
-            span[b] += l;
-            u += l;
-        }
-        // A block of no piece is covered by the next block that has one.
-        let (mut asked, mut at_feed, mut rate) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let (mut asked_before, mut at_feed_before) = (0.0, 0.0);
-        for b in 0..n {
-            asked_before += blocks.nominal[b];
-            at_feed_before += match blocks.kind[b] {
-                BlockKind::Feed if blocks.feed[b] > 0.0 => blocks.length[b] / blocks.feed[b],
-                _ => blocks.nominal[b],
-            };
-            if span[b] > 0.0 {
-                (asked[b], at_feed[b], rate[b]) = (asked_before, at_feed_before, asked_before / span[b]);
-                (asked_before, at_feed_before) = (0.0, 0.0);
-            }
-        }
-        let mut path_start = Vec::with_capacity(n);
-        let mut s = 0.0;
-        for &l in &blocks.length {
-            path_start.push(s);
-            s += l;
-        }
-        let results = (0..n)
-            .map(|i| {
-                let programmed = per_minute(blocks.feed[i]);
-                BlockResult {
-                    step: blocks.step[i],
-                    kind: blocks.kind[i],
-                    written: blocks.written.get(i).copied().unwrap_or(true),
-                    length: blocks.length[i],
-                    programmed,
-                    min_feed: programmed,
-                    mean_feed: programmed,
-                    time: 0.0,
-                    limit: Limit::Programmed,
-                    lost: 0.0,
-                    stop_lost: 0.0,
-                    cause: Limit::Programmed,
-                    min_feed_between_stops: programmed,
-                }
-            })
-            .collect();
+/// What the collector reads while it observes: the blocks, the track and what each piece is.
+pub(crate) struct Seen<'a> {
+    pub(crate) blocks: &'a Blocks,
+    pub(crate) track: &'a Track,
+    pub(crate) owner: &'a Window<usize>,
+    pub(crate) curves: Option<&'a Curves>,
+    /// The kinematics, when samples are kept.
+    pub(crate) kin: Option<&'a dyn Kinematics>,
+}
+
+impl Collector {
+    /// Before the first block; `samples` keeps every sample (of a machine of `axes` axes).
+    pub(crate) fn new(axes: usize, samples: bool, threshold: f64) -> Self {
         Collector {
-            blocks,
-            track,
-            owner,
-            piece_start,
-            piece_length,
-            scale,
-            path_start,
-            results,
-            entered: vec![0.0; n],
-            min_speed: vec![f64::INFINITY; n],
-            min_speed_between_stops: vec![f64::INFINITY; n],
-            samples: keep_samples.map(|_| Samples { axes: blocks.axes, ..Samples::default() }),
-            kin: keep_samples,
-            curves,
+            piece_start: Window::default(),
+            piece_length: Window::default(),
+            u_end: 0.0,
+            scale: Window::default(),
+            span: Window::default(),
+            path_start: Window::default(),
+            path_end: 0.0,
+            results: Window::default(),
+            finalized: 0,
+            prepared: 0,
+            entered: Window::default(),
+            min_speed: Window::default(),
+            min_speed_between_stops: Window::default(),
+            samples: samples.then(|| Samples { axes, ..Samples::default() }),
             last_tip: None,
             last_sample: None,
             length_below: 0.0,
             count: 0,
             threshold,
-            scratch: vec![0.0; blocks.axes],
-            asked,
-            at_feed,
-            rate,
-            dwell_in,
+            scratch: vec![0.0; axes],
+            asked: Window::default(),
+            at_feed: Window::default(),
+            rate: Window::default(),
+            asked_before: 0.0,
+            at_feed_before: 0.0,
+            dwell_in: Window::default(),
             split: Split::empty(),
-            causes: vec![BTreeMap::new(); blocks.operations.len()],
+            causes: Vec::new(),
+        }
+    }
+
+    /// Takes in the pieces made so far, and the blocks before `ready` (whose pieces are all
+    /// made).
+    pub(crate) fn prepare(&mut self, seen: &Seen<'_>, ready: usize) {
+        let (blocks, track, owner) = (seen.blocks, seen.track, seen.owner);
+        while self.results.end() < blocks.len() {
+            let i = self.results.end();
+            let programmed = per_minute(blocks.feed[i]);
+            self.results.push(BlockResult {
+                step: blocks.step[i],
+                kind: blocks.kind[i],
+                written: blocks.written.get(i).copied().unwrap_or(true),
+                length: blocks.length[i],
+                programmed,
+                min_feed: programmed,
+                mean_feed: programmed,
+                time: 0.0,
+                limit: Limit::Programmed,
+                lost: 0.0,
+                stop_lost: 0.0,
+                cause: Limit::Programmed,
+                min_feed_between_stops: programmed,
+            });
+            self.entered.push(0.0);
+            self.min_speed.push(f64::INFINITY);
+            self.min_speed_between_stops.push(f64::INFINITY);
+            self.scale.push(0.0);
+            self.span.push(0.0);
+            self.dwell_in.push(0.0);
+            self.path_start.push(self.path_end);
+            self.path_end += blocks.length[i];
+        }
+        while self.causes.len() < blocks.operations.len() {
+            self.causes.push(BTreeMap::new());
+        }
+        while self.piece_start.end() < track.len() {
+            let p = self.piece_start.end();
+            let (l, b) = (track.pieces[p].length, owner[p]);
+            self.piece_start.push(self.u_end);
+            self.piece_length.push(l);
+            let curve = seen.curves.is_some_and(|c| matches!(c.segments.get(p), Some(Segment::Curve { .. })));
+            // On a spline the parameter is the tip's chord length: about 1 mm of tip per unit.
+            self.scale[b] = if curve { 1.0 } else { blocks.length[b] / l };
+            if p == 0 || owner[p - 1] != b {
+                self.dwell_in[b] = if p == 0 { track.dwell_at_start } else { track.junctions[p - 1].dwell };
+            }
+            self.span[b] += l;
+            self.u_end += l;
+        }
+        // A block of no piece is covered by the next block that has one.
+        while self.prepared < ready.min(blocks.len()) {
+            let b = self.prepared;
+            self.prepared += 1;
+            self.asked_before += blocks.nominal[b];
+            self.at_feed_before += match blocks.kind[b] {
+                BlockKind::Feed if blocks.feed[b] > 0.0 => blocks.length[b] / blocks.feed[b],
+                _ => blocks.nominal[b],
+            };
+            let (asked, at_feed, rate) = if self.span[b] > 0.0 {
+                let figures = (self.asked_before, self.at_feed_before, self.asked_before / self.span[b]);
+                (self.asked_before, self.at_feed_before) = (0.0, 0.0);
+                figures
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+            self.asked.push(asked);
+            self.at_feed.push(at_feed);
+            self.rate.push(rate);
         }
     }
 
     /// Notes the parameter speed `v` reached on `block` with `limit` holding it.
-    fn reach(&mut self, block: usize, v: f64, limit: Limit) {
+    fn reach(&mut self, blocks: &Blocks, block: usize, v: f64, limit: Limit) {
         if v < self.min_speed[block] {
             self.min_speed[block] = v;
-            self.results[block].limit = self.shown(block, v, limit);
+            self.results[block].limit = self.shown(blocks, block, v, limit);
         }
     }
 
     /// What to report for parameter speed `v` on `block` held by `limit`: `Programmed` when
     /// the tip reaches the programmed feed, `AxisFeed` when the CNC is at its F but the tip is
     /// not (G1 timing: the nominal tip feed is below the programmed one).
-    fn shown(&self, block: usize, v: f64, limit: Limit) -> Limit {
-        let feed = self.blocks.feed[block];
+    fn shown(&self, blocks: &Blocks, block: usize, v: f64, limit: Limit) -> Limit {
+        let feed = blocks.feed[block];
         let tip = v * self.scale[block];
         if feed > 0.0 && tip >= 0.999 * feed {
             Limit::Programmed
         } else if limit == Limit::Programmed
-            && self.blocks.kind[block] == BlockKind::Feed
-            && self.blocks.nominal_tip_feed(block) < 0.999 * feed
+            && blocks.kind[block] == BlockKind::Feed
+            && blocks.nominal_tip_feed(block) < 0.999 * feed
         {
             Limit::AxisFeed
         } else {
@@ -566,8 +609,8 @@ impl<'a> Collector<'a> {
     }
 
     /// What the step that ends with `s` lost its time to (see the module's documentation).
-    fn cause(&mut self, s: &Sample) -> Limit {
-        let piece = &self.track.pieces[s.piece];
+    fn cause(&mut self, track: &Track, s: &Sample) -> Limit {
+        let piece = &track.pieces[s.piece];
         let dip = &mut self.split.dip;
         if s.ahead {
             // Braking for what is ahead: the dip is its.
@@ -586,26 +629,26 @@ impl<'a> Collector<'a> {
 
     /// The part of the current step from the last point accounted for to parameter `u` at time
     /// `t`, in the piece the motion is in.
-    fn part(&mut self, t: f64, u: f64) {
-        let block = self.owner[self.split.piece];
+    fn part(&mut self, owner: &Window<usize>, t: f64, u: f64) {
+        let block = owner[self.split.piece];
         let beyond = (t - self.split.t) - (u - self.split.u) * self.rate[block];
         self.split.parts.push((block, beyond));
     }
 
     /// Gives the parts of the step that ends with `s` to its cause.
-    fn account(&mut self, s: &Sample) {
+    fn account(&mut self, seen: &Seen<'_>, s: &Sample) {
         if !self.split.started {
             (self.split.t, self.split.u, self.split.piece, self.split.started) = (s.t, s.u, s.piece, true);
             return;
         }
-        self.part(s.t, s.u);
+        self.part(seen.owner, s.t, s.u);
         (self.split.t, self.split.u) = (s.t, s.u);
-        let cause = self.cause(s);
-        let owner = self.owner[s.piece];
+        let cause = self.cause(seen.track, s);
+        let owner = seen.owner[s.piece];
         self.split.speeds.push((owner, s.v));
         let parts = std::mem::take(&mut self.split.parts);
         for &(block, beyond) in &parts {
-            self.share(block, cause, beyond);
+            self.share(seen.blocks, block, cause, beyond);
         }
         self.split.parts = parts;
         self.split.parts.clear();
@@ -619,10 +662,10 @@ impl<'a> Collector<'a> {
     }
 
     /// Adds `seconds` lost to `cause` on `block`.
-    fn share(&mut self, block: usize, cause: Limit, seconds: f64) {
+    fn share(&mut self, blocks: &Blocks, block: usize, cause: Limit, seconds: f64) {
         if self.split.block != Some(block) {
             if let Some(done) = self.split.block {
-                self.close(done);
+                self.close(blocks, done);
             }
             self.split.block = Some(block);
         }
@@ -634,9 +677,9 @@ impl<'a> Collector<'a> {
 
     /// Ends the split of `block`: its main cause, its time lost to exact stops, and its shares
     /// added to its operation's.
-    fn close(&mut self, block: usize) {
+    fn close(&mut self, blocks: &Blocks, block: usize) {
         let mut shares = std::mem::take(&mut self.split.shares);
-        if self.blocks.kind[block] == BlockKind::Feed {
+        if blocks.kind[block] == BlockKind::Feed {
             // Rounding aside (on a 3-axis machine both are the same sum).
             let g1 = self.asked[block] - self.at_feed[block];
             if g1.abs() > 1e-9 * self.asked[block] {
@@ -649,7 +692,7 @@ impl<'a> Collector<'a> {
                 .filter(|(l, s)| !asked_for(*l) && *s > MAIN_CAUSE_FLOOR)
                 .max_by(|a, b| a.1.total_cmp(&b.1))
                 .map_or(Limit::Programmed, |(l, _)| *l);
-            let causes = &mut self.causes[self.blocks.operation[block] as usize];
+            let causes = &mut self.causes[blocks.operation[block] as usize];
             for &(limit, seconds) in &shares {
                 causes.entry(limit).or_default().0 += seconds;
             }
@@ -661,12 +704,17 @@ impl<'a> Collector<'a> {
         self.split.shares = shares;
     }
 
-    /// Ends the results: feeds from the shares, mean feeds from the times, the time lost.
-    pub(crate) fn finish(&mut self) {
-        if let Some(block) = self.split.block.take() {
-            self.close(block);
+    /// Makes final the results of the blocks before `end` (the motion has left them; at the end of
+    /// the program, every block): feeds from the shares, mean feeds from the times, the time
+    /// lost. Returns the range of blocks made final.
+    pub(crate) fn finalize(&mut self, blocks: &Blocks, end: usize, done: bool) -> std::ops::Range<usize> {
+        if done && let Some(block) = self.split.block.take() {
+            self.close(blocks, block);
         }
-        for (i, r) in self.results.iter_mut().enumerate() {
+        let end = if done { self.results.end() } else { end.min(self.split.block.unwrap_or(0)) };
+        let from = self.finalized;
+        for i in from..end.max(from) {
+            let r = &mut self.results[i];
             if self.min_speed[i].is_finite() {
                 let lowest = self.min_speed[i] * self.scale[i] * 60.0;
                 r.min_feed = if r.kind == BlockKind::Feed { lowest.min(r.programmed) } else { lowest };
@@ -676,43 +724,43 @@ impl<'a> Collector<'a> {
                 r.min_feed_between_stops = if r.kind == BlockKind::Feed { lowest.min(r.programmed) } else { lowest };
             }
             r.mean_feed = if r.time > 0.0 { r.length / r.time * 60.0 } else { 0.0 };
-            if r.kind == BlockKind::Feed && self.asked[i] > 0.0 {
+            if r.kind == BlockKind::Feed && self.asked.get(i).is_some_and(|&a| a > 0.0) {
                 r.lost = r.time - self.dwell_in[i] - self.at_feed[i];
             }
             if r.kind != BlockKind::Feed {
                 r.programmed = 0.0;
             }
         }
+        self.finalized = end.max(from);
+        from..self.finalized
     }
 
-    /// The operations with their figures.
-    pub(crate) fn operations(&mut self) -> Vec<Operation> {
-        let blocks = self.blocks;
-        let mut out: Vec<Operation> = blocks
-            .operations
-            .iter()
-            .map(|name| Operation {
-                name: name.clone(),
-                first: usize::MAX,
-                last: 0,
-                cycle_time: 0.0,
-                programmed_time: 0.0,
-                time_lost: 0.0,
-                causes: Vec::new(),
-            })
-            .collect();
-        for (i, r) in self.results.iter().enumerate() {
-            let op = &mut out[blocks.operation[i] as usize];
-            op.first = op.first.min(i);
-            op.last = i;
-            op.cycle_time += r.time;
-            op.time_lost += r.lost;
+    /// The time lost by cause of operation `op` so far.
+    pub(crate) fn causes_of(&self, op: usize) -> Vec<Cause> {
+        self.causes.get(op).map_or_else(Vec::new, |causes| {
+            merge(causes.iter().map(|(&limit, &(seconds, blocks))| Cause { limit, seconds, blocks }))
+        })
+    }
+
+    /// Forgets what it holds of the blocks before block `b` and the pieces before piece `p`.
+    pub(crate) fn forget_before(&mut self, b: usize, p: usize) {
+        let b = b.min(self.finalized);
+        self.piece_start.forget_before(p);
+        self.piece_length.forget_before(p);
+        for w in [&mut self.scale, &mut self.span, &mut self.path_start, &mut self.entered] {
+            w.forget_before(b);
         }
-        for (op, causes) in out.iter_mut().zip(std::mem::take(&mut self.causes)) {
-            op.programmed_time = op.cycle_time - op.time_lost;
-            op.causes = merge(causes.into_iter().map(|(limit, (seconds, blocks))| Cause { limit, seconds, blocks }));
+        for w in [&mut self.min_speed, &mut self.min_speed_between_stops, &mut self.asked, &mut self.at_feed] {
+            w.forget_before(b);
         }
-        out
+        self.rate.forget_before(b);
+        self.dwell_in.forget_before(b);
+        self.results.forget_before(b);
+    }
+
+    /// The observer of the stepper, reading `seen`.
+    pub(crate) fn observing<'s>(&'s mut self, seen: &'s Seen<'s>) -> Observing<'s> {
+        Observing { collector: self, seen }
     }
 }
 
@@ -733,32 +781,40 @@ impl Split {
     }
 }
 
-impl Observer for Collector<'_> {
+/// The collector observing the stepper.
+pub(crate) struct Observing<'s> {
+    collector: &'s mut Collector,
+    seen: &'s Seen<'s>,
+}
+
+impl Observer for Observing<'_> {
     fn sample(&mut self, s: &Sample) {
-        self.count += 1;
-        self.account(s);
-        let block = self.owner[s.piece];
-        self.reach(block, s.v, s.limit);
+        let (c, seen) = (&mut *self.collector, self.seen);
+        let blocks = seen.blocks;
+        c.count += 1;
+        c.account(seen, s);
+        let block = seen.owner[s.piece];
+        c.reach(blocks, block, s.v, s.limit);
         // The tip length covered since the last sample, below the threshold or not.
-        let length = self.piece_length[s.piece];
-        let tip_feed = self.scale[block];
-        if let Some((u0, p0)) = self.last_sample
+        let length = c.piece_length[s.piece];
+        let tip_feed = c.scale[block];
+        if let Some((u0, p0)) = c.last_sample
             && p0 == s.piece
-            && self.blocks.kind[block] == BlockKind::Feed
+            && blocks.kind[block] == BlockKind::Feed
         {
-            let share = s.v * tip_feed / self.blocks.feed[block];
-            if share < self.threshold {
-                self.length_below += (s.u - u0) * tip_feed;
+            let share = s.v * tip_feed / blocks.feed[block];
+            if share < c.threshold {
+                c.length_below += (s.u - u0) * tip_feed;
             }
         }
-        self.last_sample = Some((s.u, s.piece));
-        let shown = self.shown(block, s.v, s.limit);
-        let Some(samples) = self.samples.as_mut() else { return };
-        let fraction = ((s.u - self.piece_start[s.piece]) / length).clamp(0.0, 1.0);
-        match self.curves.and_then(|c| c.segments.get(s.piece).map(|g| (c, *g))) {
+        c.last_sample = Some((s.u, s.piece));
+        let shown = c.shown(blocks, block, s.v, s.limit);
+        let Some(samples) = c.samples.as_mut() else { return };
+        let fraction = ((s.u - c.piece_start[s.piece]) / length).clamp(0.0, 1.0);
+        match seen.curves.and_then(|cv| cv.segments.get(s.piece).map(|g| (cv, *g))) {
             Some((curves, Segment::Curve { spline, from })) => {
                 // q̇ = q_s ṡ, q̈ = q_ss ṡ² + q_s s̈, q⃛ = q_sss ṡ³ + 3 q_ss ṡ s̈ + q_s s⃛.
-                let sigma = from + (s.u - self.piece_start[s.piece]).clamp(0.0, length);
+                let sigma = from + (s.u - c.piece_start[s.piece]).clamp(0.0, length);
                 let d = curves.splines[spline].derivatives(sigma);
                 let [q, qs, qss, qsss] = &d;
                 for (((q, qs), qss), qsss) in
@@ -769,34 +825,34 @@ impl Observer for Collector<'_> {
                     samples.acceleration.push(qss * s.v * s.v + qs * s.a);
                     samples.jerk.push(qsss * s.v.powi(3) + 3.0 * qss * s.v * s.a + qs * s.j);
                 }
-                samples.path.push(self.path_start[curves.start_block[spline]] + sigma);
+                samples.path.push(c.path_start[curves.start_block[spline]] + sigma);
             }
             _ => {
-                self.blocks.delta(block, &mut self.scratch);
-                let start = self.blocks.position(block);
-                for (d, p) in self.scratch.iter().zip(start) {
+                blocks.delta(block, &mut c.scratch);
+                let start = blocks.position(block);
+                for (d, p) in c.scratch.iter().zip(start) {
                     samples.position.push(p + d * fraction);
                     samples.velocity.push(d / length * s.v);
                     samples.acceleration.push(d / length * s.a);
                     samples.jerk.push(d / length * s.j);
                 }
-                samples.path.push(self.path_start[block] + self.blocks.length[block] * fraction);
+                samples.path.push(c.path_start[block] + blocks.length[block] * fraction);
             }
         }
         samples.time.push(s.t);
         samples.block.push(block as u32);
         samples.feed.push(s.v * tip_feed * 60.0);
-        samples.programmed.push(per_minute(self.blocks.feed[block]));
+        samples.programmed.push(per_minute(blocks.feed[block]));
         samples.limit.push(shown);
-        let relative = match self.kin {
+        let relative = match seen.kin {
             Some(kin) => {
                 let n = samples.position.len();
                 let tip = kin.forward(&Joints::from_slice(&samples.position[n - samples.axes..])).tip;
-                let feed = match self.last_tip {
+                let feed = match c.last_tip {
                     Some((t0, p0)) if s.t > t0 => (tip - p0).norm() / (s.t - t0) * 60.0,
                     _ => 0.0,
                 };
-                self.last_tip = Some((s.t, tip));
+                c.last_tip = Some((s.t, tip));
                 feed
             }
             None => 0.0,
@@ -805,27 +861,28 @@ impl Observer for Collector<'_> {
     }
 
     fn crossing(&mut self, piece: usize, t: f64, v: f64, limit: Limit) {
-        let block = self.owner[piece];
-        self.reach(block, v, limit);
-        self.results[block].time = t - self.entered[block];
+        let (c, seen) = (&mut *self.collector, self.seen);
+        let block = seen.owner[piece];
+        c.reach(seen.blocks, block, v, limit);
+        c.results[block].time = t - c.entered[block];
         // The step's part in the piece it leaves; a dwell after it belongs to no step.
-        self.split.piece = piece;
-        let end = self.piece_start[piece] + self.piece_length[piece];
-        self.part(t, end);
-        self.split.speeds.push((block, v));
-        self.split.u = end;
-        self.split.t = t;
-        if piece + 1 < self.owner.len() {
-            self.split.t += self.track.junctions[piece].dwell;
-            self.split.piece = piece + 1;
+        c.split.piece = piece;
+        let end = c.piece_start[piece] + c.piece_length[piece];
+        c.part(seen.owner, t, end);
+        c.split.speeds.push((block, v));
+        c.split.u = end;
+        c.split.t = t;
+        if piece + 1 < seen.track.len() {
+            c.split.t += seen.track.junctions[piece].dwell;
+            c.split.piece = piece + 1;
         }
-        if let Some(&next) = self.owner.get(piece + 1) {
-            self.split.speeds.push((next, v));
+        if let Some(&next) = seen.owner.get(piece + 1) {
+            c.split.speeds.push((next, v));
             // The blocks in between have no duration.
             for b in block + 1..=next {
-                self.entered[b] = t;
+                c.entered[b] = t;
             }
-            self.reach(next, v, limit);
+            c.reach(seen.blocks, next, v, limit);
         }
     }
 }

@@ -20,6 +20,7 @@
 
 use crate::moves::{BlockKind, Blocks, SplineRun};
 use crate::plan::{Limit, Piece, Track, TrackBuilder};
+use crate::window::Window;
 use postpro_kin::Kinematics;
 use postpro_kin::bspline::{Cursor, Spline};
 use postpro_machine::model::Machine;
@@ -43,44 +44,47 @@ pub enum Segment {
 #[derive(Clone, Debug, Default)]
 pub struct Curves {
     /// The fitted splines, one per run written as `BSPLINE`.
-    pub splines: Vec<Spline>,
+    pub splines: Window<Spline>,
     /// One per piece.
-    pub segments: Vec<Segment>,
+    pub segments: Window<Segment>,
     /// The block each spline starts at (its parameter is 0 there).
-    pub start_block: Vec<usize>,
+    pub start_block: Window<usize>,
+}
+
+impl Curves {
+    /// Forgets the pieces before piece `i`, and the splines that end before it.
+    pub fn forget_before(&mut self, i: usize) {
+        self.segments.forget_before(i);
+        let first_kept = (self.segments.base()..self.segments.end())
+            .find_map(|p| match self.segments[p] {
+                Segment::Curve { spline, .. } => Some(spline),
+                Segment::Line => None,
+            })
+            .unwrap_or(self.splines.end());
+        self.splines.forget_before(first_kept);
+        self.start_block.forget_before(first_kept);
+    }
 }
 
 /// The VPOp track of G1 `blocks`: one piece per block, in tip path length (a block that only
 /// turns the tool gets the length it would have at its feed over its axis-speed duration).
-pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Vec<usize>) {
-    let mut b = Builder::new(blocks, machine);
-    for i in 0..blocks.len() {
-        b.line(i);
-    }
-    b.track.finish(usize::MAX)
+pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Window<usize>) {
+    let mut b = Maker::new(blocks.axes, machine, false);
+    let mut track = TrackBuilder::new(usize::MAX);
+    b.extend(blocks, machine, None, &mut track);
+    track.complete();
+    (track.track, track.owner)
 }
 
 /// The VPOp track of the B-spline program: each run of feed moves at one feed (between items
 /// of the CL file, rapids and stops) as the spline the emitter fits through its CL points, the
 /// rest as G1 blocks.
-pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -> (Track, Vec<usize>, Curves) {
-    let mut b = Builder::new(blocks, machine);
-    let mut curves = Curves::default();
-    let mut splines = blocks.splines.iter().peekable();
-    let mut i = 0;
-    while i < blocks.len() {
-        if let Some(run) = splines.next_if(|s| s.first == i) {
-            b.curve(run, kin, &mut curves);
-            curves.segments.resize(b.track.len(), Segment::Line);
-            i += run.poses.len() - 1;
-            continue;
-        }
-        b.line(i);
-        curves.segments.resize(b.track.len(), Segment::Line);
-        i += 1;
-    }
-    let (track, owner) = b.track.finish(usize::MAX);
-    (track, owner, curves)
+pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -> (Track, Window<usize>, Curves) {
+    let mut b = Maker::new(blocks.axes, machine, true);
+    let mut track = TrackBuilder::new(usize::MAX);
+    b.extend(blocks, machine, Some(kin), &mut track);
+    track.complete();
+    (track.track, track.owner, b.curves.unwrap_or_default())
 }
 
 /// The tip speed block `i` asks for: its feed, or less in G1 timing (F on the axes). The feed
@@ -91,35 +95,86 @@ fn programmed_tip_feed(blocks: &Blocks, i: usize) -> f64 {
     if (nominal - feed).abs() <= 1e-9 * feed { feed } else { nominal.max(1e-9) }
 }
 
-struct Builder<'a> {
-    blocks: &'a Blocks,
-    machine: &'a Machine,
-    track: TrackBuilder,
+/// Makes the VPOp pieces of the blocks as they come (with `curves`, B-spline runs as the
+/// spline the program writes).
+#[derive(Clone, Debug)]
+pub struct Maker {
+    /// The next block.
+    next: usize,
     /// The last feed seen (mm/s): the pace of a block that only turns the tool.
     reference_feed: f64,
     delta: Vec<f64>,
     other: Vec<f64>,
     /// The block and parameter length of the last line piece, for the next corner.
     last_line: Option<(usize, f64)>,
+    /// The first B-spline run not yet made into pieces.
+    next_spline: usize,
+    /// The splines of a B-spline program and what each piece is.
+    pub curves: Option<Curves>,
 }
 
-impl<'a> Builder<'a> {
-    fn new(blocks: &'a Blocks, machine: &'a Machine) -> Self {
-        let cnc = &machine.cnc;
-        Builder {
-            blocks,
-            machine,
-            track: TrackBuilder::with_capacity(blocks.len()),
-            reference_feed: cnc.feed_max / 60.0,
-            delta: vec![0.0; blocks.axes],
-            other: vec![0.0; blocks.axes],
+impl Maker {
+    /// Before the first block, on `machine` (with `axes` axes); `splines`: the runs the
+    /// program writes as B-splines follow them.
+    pub fn new(axes: usize, machine: &Machine, splines: bool) -> Maker {
+        Maker {
+            next: 0,
+            reference_feed: machine.cnc.feed_max / 60.0,
+            delta: vec![0.0; axes],
+            other: vec![0.0; axes],
             last_line: None,
+            next_spline: 0,
+            curves: splines.then(Curves::default),
+        }
+    }
+
+    /// The block it needs next.
+    pub fn next_block(&self) -> usize {
+        self.next
+    }
+
+    /// Adds the pieces of the blocks added to `blocks` since the last call (a B-spline run
+    /// comes whole).
+    pub fn extend(
+        &mut self,
+        blocks: &Blocks,
+        machine: &Machine,
+        kin: Option<&dyn Kinematics>,
+        track: &mut TrackBuilder,
+    ) {
+        while self.next < blocks.len() {
+            let i = self.next;
+            let splines = &blocks.splines;
+            while self.next_spline < splines.end() && splines[self.next_spline].first < i {
+                self.next_spline += 1;
+            }
+            let run =
+                self.curves.as_ref().and(kin).filter(|_| splines.get(self.next_spline).is_some_and(|r| r.first == i));
+            if let Some(kin) = run {
+                let r = self.next_spline;
+                let run = &blocks.splines[r];
+                self.curve(blocks, machine, run, kin, track);
+                if let Some(curves) = self.curves.as_mut() {
+                    while curves.segments.end() < track.len() {
+                        curves.segments.push(Segment::Line);
+                    }
+                }
+                self.next += run.poses.len() - 1;
+                continue;
+            }
+            self.line(blocks, machine, i, track);
+            if let Some(curves) = self.curves.as_mut() {
+                while curves.segments.end() < track.len() {
+                    curves.segments.push(Segment::Line);
+                }
+            }
+            self.next += 1;
         }
     }
 
     /// The caps of block `i` as one straight piece of parameter length `length`.
-    fn line_piece(&mut self, i: usize, length: f64) -> Piece {
-        let (blocks, cnc) = (self.blocks, &self.machine.cnc);
+    fn line_piece(&mut self, blocks: &Blocks, machine: &Machine, i: usize, length: f64) -> Piece {
+        let cnc = &machine.cnc;
         let kind = blocks.kind[i];
         let mut piece = Piece {
             length,
@@ -138,7 +193,7 @@ impl<'a> Builder<'a> {
             piece.acceleration = cnc.tangential_accel.unwrap_or(f64::INFINITY);
             piece.jerk = cnc.tangential_jerk.unwrap_or(f64::INFINITY);
         }
-        for (index, (axis, d)) in self.machine.axes.iter().zip(&self.delta).enumerate() {
+        for (index, (axis, d)) in machine.axes.iter().zip(&self.delta).enumerate() {
             let qs = d.abs() / length;
             if qs > 0.0 {
                 let index = index as u16;
@@ -156,9 +211,8 @@ impl<'a> Builder<'a> {
     }
 
     /// Block `i` as one straight piece.
-    fn line(&mut self, i: usize) {
-        let blocks = self.blocks;
-        self.track.before(blocks.stop_before[i], blocks.dwell_before[i]);
+    fn line(&mut self, blocks: &Blocks, machine: &Machine, i: usize, track: &mut TrackBuilder) {
+        track.before(blocks.stop_before[i], blocks.dwell_before[i]);
         if blocks.nominal[i] <= 0.0 {
             return;
         }
@@ -167,24 +221,24 @@ impl<'a> Builder<'a> {
         }
         blocks.delta(i, &mut self.delta);
         let length = if blocks.length[i] > 1e-9 { blocks.length[i] } else { blocks.nominal[i] * self.reference_feed };
-        let mut piece = self.line_piece(i, length);
-        let arc = crate::corner::arc_speed(self.machine, blocks.radius[i]);
+        let mut piece = self.line_piece(blocks, machine, i, length);
+        let arc = crate::corner::arc_speed(machine, blocks.radius[i]);
         if blocks.kind[i] != BlockKind::Rapid {
             tighten(&mut piece.velocity, &mut piece.velocity_limit, arc, Limit::Curvature);
         }
-        let mut why = blocks.junction_limit(self.track.last_block(), i);
+        let mut why = blocks.junction_limit(track.last_block(), i);
         let corner = match self.last_line {
             // Two blocks of one arc meet without a corner: at the arc's own speed.
-            Some((previous, _)) if self.track.last_block() == Some(previous) && blocks.same_arc(previous, i) => {
+            Some((previous, _)) if track.last_block() == Some(previous) && blocks.same_arc(previous, i) => {
                 why = Limit::Curvature;
                 arc
             }
-            Some((previous, previous_length)) if self.track.last_block() == Some(previous) => {
+            Some((previous, previous_length)) if track.last_block() == Some(previous) => {
                 blocks.delta(previous, &mut self.other);
                 // On the tip path a block's tip covers L / ℓ mm per unit (1 unless it only turns).
                 let tip = (blocks.length[previous] / previous_length).max(blocks.length[i] / length);
                 crate::corner::junction_cap(
-                    self.machine,
+                    machine,
                     &blocks.direction(previous),
                     &blocks.direction(i),
                     tip,
@@ -195,34 +249,41 @@ impl<'a> Builder<'a> {
             // After a curve: the tip's direction changes within the tolerance's rounding.
             _ => f64::INFINITY,
         };
-        self.track.push(piece, i, corner, why);
+        track.push(piece, i, corner, why, true);
         self.last_line = Some((i, length));
     }
 
     /// The blocks of a spline run, along the spline the motion program wrote.
-    fn curve(&mut self, run: &SplineRun, kin: &dyn Kinematics, curves: &mut Curves) {
-        let blocks = self.blocks;
+    fn curve(
+        &mut self,
+        blocks: &Blocks,
+        machine: &Machine,
+        run: &SplineRun,
+        kin: &dyn Kinematics,
+        track: &mut TrackBuilder,
+    ) {
         let start = run.first;
         let count = run.poses.len() - 1;
         for b in start..start + count {
-            self.track.before(blocks.stop_before[b] && b == start, blocks.dwell_before[b]);
+            track.before(blocks.stop_before[b] && b == start, blocks.dwell_before[b]);
         }
         let feed = blocks.feed[start];
         if blocks.kind[start] == BlockKind::Feed {
             self.reference_feed = feed;
         }
         let (spline, poses, params) = (&run.curve, &run.poses, &run.params);
-        let which = curves.splines.len();
-        let why = blocks.junction_limit(self.track.last_block(), start);
+        let Some(curves) = self.curves.as_mut() else { return };
+        let which = curves.splines.end();
+        let why = blocks.junction_limit(track.last_block(), start);
         let mut corner = match self.last_line {
-            Some((previous, _)) if self.track.last_block() == Some(previous) => {
+            Some((previous, _)) if track.last_block() == Some(previous) => {
                 let tangent = poses.get(1).map_or(nalgebra::Vector3::zeros(), |p| p.tip - poses[0].tip);
                 crate::corner::corner_speed(
                     &blocks.direction(previous),
                     &tangent,
-                    self.machine.cnc.contour_tolerance,
-                    crate::corner::path_acceleration(self.machine),
-                    self.machine.cnc.curvature_accel_share,
+                    machine.cnc.contour_tolerance,
+                    crate::corner::path_acceleration(machine),
+                    machine.cnc.curvature_accel_share,
                 )
             }
             _ => f64::INFINITY,
@@ -246,9 +307,11 @@ impl<'a> Builder<'a> {
             cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * (s1 - s0).max(1e-9));
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
-                let piece = self.curve_piece(&mut cursor, kin, from, to, feed);
-                self.track.push(piece, block, corner, why);
-                curves.segments.resize(self.track.len() - 1, Segment::Line);
+                let piece = curve_piece(machine, &mut cursor, kin, from, to, feed);
+                track.push(piece, block, corner, why, true);
+                while curves.segments.end() + 1 < track.len() {
+                    curves.segments.push(Segment::Line);
+                }
                 curves.segments.push(Segment::Curve { spline: which, from });
                 corner = f64::INFINITY;
             }
@@ -257,86 +320,93 @@ impl<'a> Builder<'a> {
         curves.start_block.push(start);
         self.last_line = None;
     }
+}
 
-    /// The caps of the spline between parameters `from` and `to`.
-    fn curve_piece(&self, cursor: &mut Cursor<'_>, kin: &dyn Kinematics, from: f64, to: f64, feed: f64) -> Piece {
-        let axes = &self.machine.axes;
-        let cnc = &self.machine.cnc;
-        let mut worst = vec![[0.0_f64; 3]; axes.len()];
-        let mut tip_rate: f64 = 0.0;
-        const PROBES: usize = 6;
-        // Probes just inside the ends: the derivatives of the span the piece lies in.
-        let inset = 1e-9 * (to - from);
-        for p in 0..=PROBES {
-            let s = (from + (to - from) * p as f64 / PROBES as f64).clamp(from + inset, to - inset);
-            let d = cursor.derivatives(s);
-            for (a, w) in worst.iter_mut().enumerate() {
-                for order in 0..3 {
-                    w[order] = w[order].max(d[order + 1][a].abs());
-                }
+/// The caps of the spline between parameters `from` and `to`.
+fn curve_piece(
+    machine: &Machine,
+    cursor: &mut Cursor<'_>,
+    kin: &dyn Kinematics,
+    from: f64,
+    to: f64,
+    feed: f64,
+) -> Piece {
+    let axes = &machine.axes;
+    let cnc = &machine.cnc;
+    let mut worst = vec![[0.0_f64; 3]; axes.len()];
+    let mut tip_rate: f64 = 0.0;
+    const PROBES: usize = 6;
+    // Probes just inside the ends: the derivatives of the span the piece lies in.
+    let inset = 1e-9 * (to - from);
+    for p in 0..=PROBES {
+        let s = (from + (to - from) * p as f64 / PROBES as f64).clamp(from + inset, to - inset);
+        let d = cursor.derivatives(s);
+        for (a, w) in worst.iter_mut().enumerate() {
+            for order in 0..3 {
+                w[order] = w[order].max(d[order + 1][a].abs());
             }
-            // The tip's rate along the parameter, from the forward kinematics.
-            let h = 1e-3 * (to - from).max(1e-9);
-            let (x0, x1) = (kin.forward(&cursor.at(s - h)).tip, kin.forward(&cursor.at(s + h)).tip);
-            tip_rate = tip_rate.max((x1 - x0).norm() / (2.0 * h));
         }
-        let mut piece = Piece {
-            length: to - from,
-            velocity: if tip_rate > 0.0 { feed / tip_rate } else { feed },
-            acceleration: cnc.tangential_accel.map_or(f64::INFINITY, |a| a / tip_rate.max(1e-9)),
-            jerk: cnc.tangential_jerk.map_or(f64::INFINITY, |j| j / tip_rate.max(1e-9)),
-            velocity_limit: Limit::Programmed,
-            acceleration_limit: Limit::TangentialAcceleration,
-            jerk_limit: Limit::TangentialJerk,
-        };
-        // The first derivative is quadratic within a span: a margin for its peak between probes.
-        for w in &mut worst {
-            w[0] *= 1.01;
-        }
-        // Paper 003's quick bound, at 0.8 of it so that the curvature terms leave room.
-        for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
-            let index = index as u16;
-            let mut bound = f64::INFINITY;
-            let mut why = Limit::Velocity(index);
-            for (cap, limit) in [
-                (axis.vmax / q1, Limit::Velocity(index)),
-                ((axis.amax / q2).sqrt(), Limit::Acceleration(index)),
-                ((axis.jmax / q3).cbrt(), Limit::Jerk(index)),
-            ] {
-                if cap < bound {
-                    bound = cap;
-                    why = limit;
-                }
-            }
-            tighten(&mut piece.velocity, &mut piece.velocity_limit, 0.8 * bound, why);
-        }
-        let v = piece.velocity;
-        for (index, (axis, [q1, q2, _])) in axes.iter().zip(&worst).enumerate() {
-            if *q1 <= 0.0 {
-                continue;
-            }
-            let index = index as u16;
-            let a_cap = (axis.amax - q2 * v * v) / q1;
-            tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_cap, Limit::Acceleration(index));
-        }
-        let a = piece.acceleration.min(1e12);
-        for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
-            if *q1 <= 0.0 {
-                continue;
-            }
-            let index = index as u16;
-            // What the jerk of the parameter may use once the curvature terms at (v, a) are paid;
-            // where they leave little, the acceleration is lowered instead.
-            let mut j_cap = (axis.jmax - q3 * v * v * v - 3.0 * q2 * v * a) / q1;
-            if j_cap < 0.1 * axis.jmax / q1 {
-                j_cap = 0.1 * axis.jmax / q1;
-                let a_room = (0.9 * axis.jmax - q3 * v * v * v).max(0.0) / (3.0 * q2 * v).max(1e-12);
-                tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_room, Limit::Jerk(index));
-            }
-            tighten(&mut piece.jerk, &mut piece.jerk_limit, j_cap, Limit::Jerk(index));
-        }
-        finite(piece)
+        // The tip's rate along the parameter, from the forward kinematics.
+        let h = 1e-3 * (to - from).max(1e-9);
+        let (x0, x1) = (kin.forward(&cursor.at(s - h)).tip, kin.forward(&cursor.at(s + h)).tip);
+        tip_rate = tip_rate.max((x1 - x0).norm() / (2.0 * h));
     }
+    let mut piece = Piece {
+        length: to - from,
+        velocity: if tip_rate > 0.0 { feed / tip_rate } else { feed },
+        acceleration: cnc.tangential_accel.map_or(f64::INFINITY, |a| a / tip_rate.max(1e-9)),
+        jerk: cnc.tangential_jerk.map_or(f64::INFINITY, |j| j / tip_rate.max(1e-9)),
+        velocity_limit: Limit::Programmed,
+        acceleration_limit: Limit::TangentialAcceleration,
+        jerk_limit: Limit::TangentialJerk,
+    };
+    // The first derivative is quadratic within a span: a margin for its peak between probes.
+    for w in &mut worst {
+        w[0] *= 1.01;
+    }
+    // Paper 003's quick bound, at 0.8 of it so that the curvature terms leave room.
+    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
+        let index = index as u16;
+        let mut bound = f64::INFINITY;
+        let mut why = Limit::Velocity(index);
+        for (cap, limit) in [
+            (axis.vmax / q1, Limit::Velocity(index)),
+            ((axis.amax / q2).sqrt(), Limit::Acceleration(index)),
+            ((axis.jmax / q3).cbrt(), Limit::Jerk(index)),
+        ] {
+            if cap < bound {
+                bound = cap;
+                why = limit;
+            }
+        }
+        tighten(&mut piece.velocity, &mut piece.velocity_limit, 0.8 * bound, why);
+    }
+    let v = piece.velocity;
+    for (index, (axis, [q1, q2, _])) in axes.iter().zip(&worst).enumerate() {
+        if *q1 <= 0.0 {
+            continue;
+        }
+        let index = index as u16;
+        let a_cap = (axis.amax - q2 * v * v) / q1;
+        tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_cap, Limit::Acceleration(index));
+    }
+    let a = piece.acceleration.min(1e12);
+    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
+        if *q1 <= 0.0 {
+            continue;
+        }
+        let index = index as u16;
+        // What the jerk of the parameter may use once the curvature terms at (v, a) are paid;
+        // where they leave little, the acceleration is lowered instead.
+        let mut j_cap = (axis.jmax - q3 * v * v * v - 3.0 * q2 * v * a) / q1;
+        if j_cap < 0.1 * axis.jmax / q1 {
+            j_cap = 0.1 * axis.jmax / q1;
+            let a_room = (0.9 * axis.jmax - q3 * v * v * v).max(0.0) / (3.0 * q2 * v).max(1e-12);
+            tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_room, Limit::Jerk(index));
+        }
+        tighten(&mut piece.jerk, &mut piece.jerk_limit, j_cap, Limit::Jerk(index));
+    }
+    finite(piece)
 }
 
 fn finite(mut piece: Piece) -> Piece {
