@@ -92,6 +92,9 @@ pub struct Dialect {
     /// F per minute in an inch program is in inches per minute times this (Heidenhain: 10, its
     /// F being in 1/10 in/min in `INCH` programs).
     pub inch_feed_scale: f64,
+    /// Every block starts with its number, from 0 (Heidenhain), written by the renderer, not the
+    /// template: a line that continues the block before it (which ends with `~`) has none.
+    pub numbered_blocks: bool,
 }
 
 /// Which work offsets a dialect selects.
@@ -193,6 +196,7 @@ pub const DIALECTS: &[Dialect] = &[
         work_offsets: WorkOffsets::Siemens,
         planes: Some(PlaneKind::Tilted),
         inch_feed_scale: 1.0,
+        numbered_blocks: false,
     },
     Dialect {
         name: "fanuc",
@@ -213,6 +217,7 @@ pub const DIALECTS: &[Dialect] = &[
         work_offsets: WorkOffsets::Fanuc,
         planes: Some(PlaneKind::Tilted),
         inch_feed_scale: 1.0,
+        numbered_blocks: false,
     },
     Dialect {
         name: "haas",
@@ -233,6 +238,7 @@ pub const DIALECTS: &[Dialect] = &[
         work_offsets: WorkOffsets::Haas,
         planes: Some(PlaneKind::Dynamic),
         inch_feed_scale: 1.0,
+        numbered_blocks: false,
     },
     Dialect {
         name: "heidenhain",
@@ -253,6 +259,7 @@ pub const DIALECTS: &[Dialect] = &[
         work_offsets: WorkOffsets::Heidenhain,
         planes: Some(PlaneKind::Tilted),
         inch_feed_scale: 10.0,
+        numbered_blocks: true,
     },
     Dialect {
         name: "linuxcnc",
@@ -273,6 +280,7 @@ pub const DIALECTS: &[Dialect] = &[
         work_offsets: WorkOffsets::LinuxCnc,
         planes: None,
         inch_feed_scale: 1.0,
+        numbered_blocks: false,
     },
 ];
 

@@ -709,7 +709,7 @@ pub fn build_blocks(
 
 /// The dialect's words for the motion program's blocks, with the modal state of what was
 /// written last (axis texts, F, feed mode) and the annotations still to place.
-struct Formatter<'a> {
+pub(crate) struct Formatter<'a> {
     machine: &'a Machine,
     dialect: &'a Dialect,
     options: &'a Options,
@@ -742,7 +742,12 @@ struct Formatter<'a> {
 }
 
 impl<'a> Formatter<'a> {
-    fn new(machine: &'a Machine, dialect: &'a Dialect, options: &'a Options, sink: &'a mut dyn BlockSink) -> Self {
+    pub(crate) fn new(
+        machine: &'a Machine,
+        dialect: &'a Dialect,
+        options: &'a Options,
+        sink: &'a mut dyn BlockSink,
+    ) -> Self {
         let mut notes: Vec<usize> = (0..options.annotations.len()).collect();
         notes.sort_by_key(|&i| options.annotations[i].step);
         Formatter {
@@ -1358,7 +1363,7 @@ impl<'a> Formatter<'a> {
         self.last_feed = None;
     }
 
-    fn finish(mut self) -> Result<(), EmitError> {
+    pub(crate) fn finish(mut self) -> Result<(), EmitError> {
         // Annotations of steps past the last one: after the last motion, never dropped.
         self.notes_upto(usize::MAX);
         if self.feed_mode != "per-minute" {
@@ -1368,6 +1373,13 @@ impl<'a> Formatter<'a> {
             Some(e) => Err(e),
             None => Ok(()),
         }
+    }
+}
+
+/// The formatter takes the motion program's blocks as they are made.
+impl postpro_motion::MotionSink for Formatter<'_> {
+    fn block(&mut self, block: postpro_motion::Block) {
+        Formatter::block(self, &block);
     }
 }
 

@@ -9,9 +9,8 @@ use postpro_machine::model::Machine;
 
 use crate::EmitError;
 use crate::dialect::Dialect;
-use crate::program::{
-    Block, BlockSink, Header, Options, Program, Word, build, build_blocks, check_mode, header, tools,
-};
+use crate::program::{Block, BlockSink, Formatter, Header, Options, Program, Word, check_mode, header, tools};
+use postpro_motion::MotionSink;
 
 /// The built-in templates, by dialect name.
 pub const TEMPLATES: &[(&str, &str)] = &[
@@ -37,8 +36,20 @@ pub fn render(program: &Program, name: &str, source: &str) -> Result<String, Emi
     env.set_keep_trailing_newline(true);
     env.add_template(name, source).map_err(err)?;
     let template = env.get_template(name).map_err(err)?;
+    let dialect = &program.header.dialect;
+    // A template with the streaming macros leaves the block numbers to the renderer; one without
+    // them numbers its own lines.
+    let renumber = dialect.numbered_blocks && {
+        let empty = minijinja::context! {
+            header => Value::from_serialize(&program.header),
+            tools => Value::from_serialize(&program.tools),
+            blocks => Value::from(Vec::<Value>::new()),
+        };
+        streamable(&template.render_captured(empty).map_err(err)?)
+    };
+    let numbered = |dialect: &Dialect, text: &str| if renumber { numbered(dialect, text) } else { text.to_string() };
     if program.header.prediction.as_ref().is_none_or(|p| p.worst.is_empty()) {
-        return template.render(program).map_err(err);
+        return template.render(program).map_err(err).map(|text| numbered(dialect, &text));
     }
     let mut marked = program.clone();
     for block in &mut marked.blocks {
@@ -46,7 +57,7 @@ pub fn render(program: &Program, name: &str, source: &str) -> Result<String, Emi
             *text = format!("{MARK}{number}{MARK}{text}");
         }
     }
-    let first_pass = template.render(&marked).map_err(err)?;
+    let first_pass = numbered(dialect, &template.render(&marked).map_err(err)?);
     let mut lines = HashMap::new();
     for (k, line) in first_pass.lines().enumerate() {
         let number = line.split(MARK).nth(1).and_then(|n| n.parse::<usize>().ok());
@@ -62,7 +73,49 @@ pub fn render(program: &Program, name: &str, source: &str) -> Result<String, Emi
         tools => Value::from_serialize(&program.tools),
         blocks => Value::from_serialize(&program.blocks),
     };
-    template.render(context).map_err(err)
+    template.render(context).map_err(err).map(|text| numbered(dialect, &text))
+}
+
+/// True when the template of `captured` defines the macros a streamed program is written with.
+fn streamable(captured: &minijinja::Captured<'_>) -> bool {
+    ["program_start", "block", "program_end"].iter().all(|m| captured.state().lookup(m).is_some())
+}
+
+/// `text` with its blocks numbered where the dialect numbers them ([`Numbering`]).
+fn numbered(dialect: &Dialect, text: &str) -> String {
+    if !dialect.numbered_blocks {
+        return text.to_string();
+    }
+    let mut numbering = Numbering::default();
+    let mut out = String::with_capacity(text.len() + text.len() / 8);
+    for line in text.split_inclusive('\n') {
+        numbering.prefix(line, &mut out);
+        out.push_str(line);
+    }
+    out
+}
+
+/// The numbers of a dialect whose every block starts with its number, from 0 (Heidenhain): a
+/// line that continues the block before it (which ends with `~`) gets none.
+#[derive(Debug, Default)]
+struct Numbering {
+    next: u64,
+    continues: bool,
+}
+
+impl Numbering {
+    /// Writes the number `line` starts with (if any) to `out`; returns it.
+    fn prefix(&mut self, line: &str, out: &mut String) -> Option<u64> {
+        let number = (!self.continues).then(|| {
+            let n = self.next;
+            self.next += 1;
+            out.push_str(&n.to_string());
+            out.push(' ');
+            n
+        });
+        self.continues = line.trim_end().ends_with('~');
+        number
+    }
 }
 
 /// Fills in the NC line and block number of each worst slowdown of `header` (none where `line_of`
@@ -94,16 +147,45 @@ fn describe(e: &minijinja::Error) -> String {
     s
 }
 
-/// Writes the program to `out` block by block, never holding it in memory. The template must
-/// define the macros `program_start()`, `block(b)` and `program_end()` (the built-in ones do, except
-/// Heidenhain's, whose line numbers run across blocks); otherwise the whole program is built and
-/// rendered at once, with the same result.
-///
-/// Motion blocks are the bulk of a program, so each shape of them (kind, axis letters, feed,
-/// note, number) is rendered once with markers in place of the numbers; the markers cut the
-/// output into a skeleton that is then filled with each block's numbers. The first two blocks of
-/// each shape are also rendered in full and compared: a template that computes on the values
-/// (not only the formatted texts) is detected and always rendered in full.
+/// Where the body of a streamed program waits while its header is completed (the lines of its
+/// worst slowdowns are known only once the body is written): a temporary file, or memory.
+pub trait Scratch: Write {
+    /// Copies what was written to `out`.
+    fn replay(&mut self, out: &mut dyn Write) -> std::io::Result<()>;
+}
+
+impl Scratch for Vec<u8> {
+    fn replay(&mut self, out: &mut dyn Write) -> std::io::Result<()> {
+        out.write_all(self)
+    }
+}
+
+impl Scratch for std::fs::File {
+    fn replay(&mut self, out: &mut dyn Write) -> std::io::Result<()> {
+        use std::io::Seek;
+        self.flush()?;
+        self.seek(std::io::SeekFrom::Start(0))?;
+        std::io::copy(self, out).map(drop)
+    }
+}
+
+/// Why a streamed program was not written: the emitter's error, or the one of what produced its
+/// motion blocks.
+#[derive(Debug)]
+pub enum WriteError<E> {
+    /// The emitter's.
+    Emit(EmitError),
+    /// The producer's.
+    Produce(E),
+}
+
+impl<E> From<EmitError> for WriteError<E> {
+    fn from(e: EmitError) -> Self {
+        WriteError::Emit(e)
+    }
+}
+
+/// Writes the program of `motion` (see [`write_program_with`]), the body waiting in memory.
 #[allow(clippy::too_many_arguments)]
 pub fn write_program(
     motion: &postpro_motion::Program,
@@ -114,76 +196,141 @@ pub fn write_program(
     source: &str,
     out: &mut dyn Write,
 ) -> Result<(), EmitError> {
-    check_mode(dialect, motion.mode)?;
+    let mut body = Vec::new();
+    let mut produce = |sink: &mut dyn MotionSink| -> Result<(), std::convert::Infallible> {
+        for block in &motion.blocks {
+            sink.block(block.clone());
+        }
+        Ok(())
+    };
+    write_program_with(motion, machine, dialect, options, (name, source), out, &mut body, &mut produce).map_err(|e| {
+        match e {
+            WriteError::Emit(e) => e,
+            WriteError::Produce(never) => match never {},
+        }
+    })
+}
+
+/// Writes a program to `out` block by block, never holding it in memory: `produce` hands the
+/// motion blocks over one at a time; the header and the tools come from `facts` (a motion
+/// program whose blocks are not read). The template (`name`, `source`) must define the macros
+/// `program_start()`, `block(b)` and `program_end()` (the built-in ones do); otherwise the whole
+/// program is built and rendered at once, with the same result. The body waits in `scratch`
+/// while the header gets the lines of the worst slowdowns' comments; the header's line count
+/// must not depend on them.
+///
+/// Motion blocks are the bulk of a program, so each shape of them (kind, axis letters, feed,
+/// note, number) is rendered once with markers in place of the numbers; the markers cut the
+/// output into a skeleton that is then filled with each block's numbers. The first two blocks of
+/// each shape are also rendered in full and compared: a template that computes on the values
+/// (not only the formatted texts) is detected and always rendered in full.
+#[allow(clippy::too_many_arguments)]
+pub fn write_program_with<E>(
+    facts: &postpro_motion::Program,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+    (name, source): (&str, &str),
+    out: &mut dyn Write,
+    scratch: &mut dyn Scratch,
+    produce: &mut dyn FnMut(&mut dyn MotionSink) -> Result<(), E>,
+) -> Result<(), WriteError<E>> {
+    check_mode(dialect, facts.mode)?;
     let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
     env.set_keep_trailing_newline(true);
     env.add_template(name, source).map_err(err)?;
     let template = env.get_template(name).map_err(err)?;
-    let mut header = header(motion, machine, dialect, options)?;
-    let tools = tools(motion, dialect, options.units);
-    // Rendering with no blocks yields the state whose macros are called below.
-    let captured = template
-        .render_captured(minijinja::context! { header => Value::from_serialize(&header), tools, blocks => Value::from(Vec::<Value>::new()) })
-        .map_err(err)?;
-    let streamable = ["program_start", "block", "program_end"].iter().all(|m| captured.state().lookup(m).is_some());
-    if !streamable {
-        let program = build(motion, machine, dialect, options)?;
-        let text = render(&program, name, source)?;
+    let mut header = header(facts, machine, dialect, options)?;
+    let tools = tools(facts, dialect, options.units);
+    let capture = |header: &Header| {
+        // Rendering with no blocks yields the state whose macros are called below.
+        template
+            .render_captured(minijinja::context! { header => Value::from_serialize(header), tools => Value::from_serialize(&tools), blocks => Value::from(Vec::<Value>::new()) })
+            .map_err(err)
+    };
+    let captured = capture(&header)?;
+    if !streamable(&captured) {
+        let mut blocks = Vec::new();
+        let mut formatter = Formatter::new(machine, dialect, options, &mut blocks);
+        produce(&mut formatter).map_err(WriteError::Produce)?;
+        formatter.finish()?;
+        let text = render(&Program { header, tools, blocks }, name, source)?;
         for line in text.lines() {
             check_length(line, dialect)?;
         }
-        return out.write_all(text.as_bytes()).map_err(io_error);
+        return out.write_all(text.as_bytes()).map_err(|e| io_error(e).into());
     }
-    let worst = header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty());
-    if worst {
-        // A first pass, written nowhere, finds the lines of the worst slowdowns' comments.
-        let counted = stream(&captured, name, motion, machine, dialect, options, &mut std::io::sink())?;
-        set_nc_lines(&mut header, |number| counted.get(&number).copied());
-    }
-    let captured = if worst {
-        template
-            .render_captured(minijinja::context! { header => Value::from_serialize(&header), tools, blocks => Value::from(Vec::<Value>::new()) })
-            .map_err(err)?
-    } else {
-        captured
-    };
-    stream(&captured, name, motion, machine, dialect, options, out).map(drop)
-}
-
-/// Writes the program with the template's streaming macros; returns the line (1-based) and block
-/// number of each slowdown's comment, by slowdown number.
-fn stream(
-    captured: &minijinja::Captured<'_>,
-    name: &str,
-    motion: &postpro_motion::Program,
-    machine: &Machine,
-    dialect: &Dialect,
-    options: &Options,
-    out: &mut dyn Write,
-) -> Result<HashMap<usize, (usize, Option<u64>)>, EmitError> {
-    let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
     let state = captured.state();
+    let mut numbering = Numbering::default();
     let start = state.call_macro("program_start", &[]).map_err(err)?;
-    start.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(start.as_bytes()).map_err(io_error)?;
-    let mut sink = Streaming {
+    let start_lines = start.matches('\n').count();
+    let mut body = Streaming {
         state,
         name,
         dialect,
-        out,
+        out: scratch,
         shapes: HashMap::new(),
         line: String::with_capacity(128),
-        lines: start.matches('\n').count(),
+        numbered: String::with_capacity(128),
+        lines: start_lines,
+        numbering: Numbering { next: count_blocks(dialect, &start), ..Numbering::default() },
         slowdowns: HashMap::new(),
     };
-    build_blocks(motion, machine, dialect, options, &mut sink)?;
-    let slowdowns = std::mem::take(&mut sink.slowdowns);
+    let mut formatter = Formatter::new(machine, dialect, options, &mut body);
+    produce(&mut formatter).map_err(WriteError::Produce)?;
+    formatter.finish()?;
+    let Streaming { slowdowns, numbering: body_numbering, lines, .. } = body;
     let end = state.call_macro("program_end", &[]).map_err(err)?;
-    end.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(end.as_bytes()).map_err(io_error)?;
-    Ok(slowdowns)
+    let start = if header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty()) {
+        set_nc_lines(&mut header, |number| slowdowns.get(&number).copied());
+        let start = capture(&header)?.state().call_macro("program_start", &[]).map_err(err)?;
+        if start.matches('\n').count() != start_lines {
+            return Err(EmitError::Template {
+                name: name.to_string(),
+                message: "the header's line count depends on the lines of the worst slowdowns (nc_line, nc_block): \
+                          keep it the same whatever they are"
+                    .into(),
+            }
+            .into());
+        }
+        start
+    } else {
+        start
+    };
+    let mut text = String::with_capacity(start.len() + 64);
+    for line in start.split_inclusive('\n') {
+        numbering_line(dialect, &mut numbering, line, &mut text);
+    }
+    text.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(text.as_bytes()).map_err(io_error)?;
+    scratch.replay(out).map_err(io_error)?;
+    let mut numbering = body_numbering;
+    let mut text = String::with_capacity(end.len() + 16);
+    for line in end.split_inclusive('\n') {
+        numbering_line(dialect, &mut numbering, line, &mut text);
+    }
+    text.lines().try_for_each(|l| check_length(l, dialect))?;
+    let _ = lines;
+    out.write_all(text.as_bytes()).map_err(|e| io_error(e).into())
+}
+
+/// The blocks `text` holds (each numbered line) in `dialect`.
+fn count_blocks(dialect: &Dialect, text: &str) -> u64 {
+    let mut numbering = Numbering::default();
+    let mut sink = String::new();
+    for line in text.split_inclusive('\n') {
+        numbering_line(dialect, &mut numbering, line, &mut sink);
+    }
+    numbering.next
+}
+
+/// Appends `line` to `out`, with its number where the dialect numbers blocks.
+fn numbering_line(dialect: &Dialect, numbering: &mut Numbering, line: &str, out: &mut String) -> Option<u64> {
+    let number = if dialect.numbered_blocks { numbering.prefix(line, out) } else { None };
+    out.push_str(line);
+    number
 }
 
 fn io_error(e: std::io::Error) -> EmitError {
@@ -214,11 +361,14 @@ struct Streaming<'s, 'env, 'o> {
     state: &'s minijinja::State<'s, 'env>,
     name: &'s str,
     dialect: &'s Dialect,
-    out: &'o mut dyn Write,
+    out: &'o mut dyn Scratch,
     shapes: HashMap<String, Shape>,
     line: String,
-    /// Lines written so far.
+    /// The line with its block number.
+    numbered: String,
+    /// Lines written so far (the header's included).
     lines: usize,
+    numbering: Numbering,
     /// The line (1-based) and block number of each slowdown comment written, by slowdown number.
     slowdowns: HashMap<usize, (usize, Option<u64>)>,
 }
@@ -342,10 +492,13 @@ impl BlockSink for Streaming<'_, '_, '_> {
     fn block(&mut self, block: Block) -> Result<(), EmitError> {
         let Some(key) = shape_key(&block) else {
             let text = self.full(&block)?;
-            if let Block::Comment { slowdown: Some(number), .. } = block {
-                self.slowdowns.entry(number).or_insert((self.lines + 1, block_number(&text)));
+            let line = self.lines + 1;
+            let number = self.write(&text)?;
+            if let Block::Comment { slowdown: Some(slowdown), .. } = block {
+                let number = number.or_else(|| block_number(&text));
+                self.slowdowns.entry(slowdown).or_insert((line, number));
             }
-            return write_line(self.out, &mut self.lines, &text, self.dialect);
+            return Ok(());
         };
         if !self.shapes.contains_key(&key) {
             let shape = self.skeleton(&block).map_or(Shape::Full, |s| Shape::Skeleton(s, 0));
@@ -354,7 +507,7 @@ impl BlockSink for Streaming<'_, '_, '_> {
         let mut line = std::mem::take(&mut self.line);
         let result = match self.shapes.get(&key) {
             Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line) => {
-                write_line(self.out, &mut self.lines, &line, self.dialect)
+                self.write(&line)
             }
             Some(Shape::Skeleton(pieces, checked)) => {
                 // Verify the skeleton against the full rendering; keep it only if they agree.
@@ -362,25 +515,42 @@ impl BlockSink for Streaming<'_, '_, '_> {
                 let agrees = Self::fill(pieces, &block, &mut line) && line == full;
                 let next = if agrees { Shape::Skeleton(pieces.clone(), checked + 1) } else { Shape::Full };
                 self.shapes.insert(key, next);
-                write_line(self.out, &mut self.lines, &full, self.dialect)
+                self.write(&full)
             }
             _ => {
                 let text = self.full(&block)?;
-                write_line(self.out, &mut self.lines, &text, self.dialect)
+                self.write(&text)
             }
         };
         self.line = line;
-        result
+        result.map(drop)
     }
 }
 
-/// Writes `text` and a line break, counting the lines in `lines`.
-fn write_line(out: &mut dyn Write, lines: &mut usize, text: &str, dialect: &Dialect) -> Result<(), EmitError> {
-    *lines += text.matches('\n').count() + 1;
-    for line in text.lines() {
-        check_length(line, dialect)?;
+impl Streaming<'_, '_, '_> {
+    /// Writes `text` and a line break (its blocks numbered where the dialect numbers them),
+    /// counting the lines; returns the number of its first block, if numbered.
+    fn write(&mut self, text: &str) -> Result<Option<u64>, EmitError> {
+        self.lines += text.matches('\n').count() + 1;
+        let (out, dialect) = (&mut *self.out, self.dialect);
+        if !dialect.numbered_blocks {
+            for line in text.lines() {
+                check_length(line, dialect)?;
+            }
+            return out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).map(|()| None).map_err(io_error);
+        }
+        let mut first = None;
+        for line in text.lines() {
+            self.numbered.clear();
+            let number = self.numbering.prefix(line, &mut self.numbered);
+            first = first.or(number);
+            self.numbered.push_str(line);
+            check_length(&self.numbered, dialect)?;
+            self.numbered.push('\n');
+            out.write_all(self.numbered.as_bytes()).map_err(io_error)?;
+        }
+        Ok(first)
     }
-    out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).map_err(io_error)
 }
 
 /// A line longer than the controller accepts is an error, never a truncated block.
