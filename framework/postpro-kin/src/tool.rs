@@ -111,13 +111,18 @@ pub struct Stretches<'a> {
 impl<'a> Stretches<'a> {
     /// The stretches of `path` for `lengths`, before its first item.
     pub fn new(kin: &'a dyn Kinematics, path: &ToolPath, lengths: &[LengthFrom]) -> Stretches<'a> {
-        let mut bounds: Vec<(u32, f64)> = Vec::with_capacity(lengths.len() + 1);
-        bounds.push((0, kin.machine().chain.tool_length));
-        for l in lengths {
-            let at = path.items.get(l.item).map_or(u32::MAX, |i| i.span.start);
+        let starts = lengths.iter().map(|l| (path.items.get(l.item).map_or(u32::MAX, |i| i.span.start), l.length));
+        Stretches::starting(kin, starts)
+    }
+
+    /// The stretches that start at the CL statements at `starts` (byte offsets, in path order)
+    /// with their tool lengths, before the first statement.
+    pub fn starting(kin: &'a dyn Kinematics, starts: impl IntoIterator<Item = (u32, f64)>) -> Stretches<'a> {
+        let mut bounds: Vec<(u32, f64)> = vec![(0, kin.machine().chain.tool_length)];
+        for (at, length) in starts {
             match bounds.last_mut() {
-                Some(last) if last.0 == at => last.1 = l.length,
-                _ => bounds.push((at, l.length)),
+                Some(last) if last.0 == at => last.1 = length,
+                _ => bounds.push((at, length)),
             }
         }
         Stretches { kin, bounds, current: 0 }

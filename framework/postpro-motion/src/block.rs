@@ -74,6 +74,8 @@ pub struct Position {
     /// Why the step is there: `Retract` for the retracts and approaches postpro adds at the
     /// clearance, `Reorient` for the rotation between them.
     pub kind: StepKind,
+    /// The CL statement of the step.
+    pub span: Span,
 }
 
 /// A rapid traverse.

@@ -120,24 +120,39 @@ impl Job {
         table: Option<&postpro_machine::tools::ToolTable>,
         work_offset: WorkOffset,
     ) -> Result<(Job, Vec<Warning>), MotionError> {
-        let machine = kin.machine();
         let (tooling, warnings) = crate::tooling::tooling(path, table);
+        Ok((Job::with_tooling(kin, tooling, mode, work_offset)?, warnings))
+    }
+
+    /// The job of a program whose tools are `tooling` (see [`Job::new`]).
+    pub fn with_tooling(
+        kin: &dyn Kinematics,
+        tooling: Tooling,
+        mode: Mode,
+        work_offset: WorkOffset,
+    ) -> Result<Job, MotionError> {
+        let machine = kin.machine();
         let kinematic_lengths = crate::tooling::kinematic_lengths(machine, &tooling, mode).map_err(|tool| {
             let change = tooling.changes.iter().find(|c| c.tool == tool);
             MotionError::ToolLength {
-                span: change.map_or_else(Span::default, |c| crate::tooling::change_span(path, c)),
+                span: change.map_or_else(Span::default, crate::tooling::change_span),
                 number: tooling.tools[tool].number,
                 machine: machine.name.clone(),
             }
         })?;
-        let job = Job {
+        Ok(Job {
             frame: crate::frame::work_frame(kin, mode),
             work_offset,
             tooling,
             kinematic_lengths,
             length_compensation: machine.chain.tool.is_empty() || mode == Mode::Tcp,
-        };
-        Ok((job, warnings))
+        })
+    }
+
+    /// Where each tool's stretch of the tool path starts (the CL statement of its change) and
+    /// the length it is solved with.
+    pub fn stretch_starts(&self) -> impl Iterator<Item = (u32, f64)> + '_ {
+        self.tooling.changes.iter().map(|c| (c.span.start, self.kinematic_lengths[c.tool]))
     }
 
     /// Where each tool's stretch of the tool path starts and the length it is solved with (for
@@ -448,12 +463,18 @@ impl<'a> Builder<'a> {
 
     /// The position of solved step `index`, in the program's frame.
     pub(crate) fn position(&self, step: &Step, index: usize) -> Position {
-        Position { axes: self.job.frame.apply(&step.joints), pose: step.pose, step: index, kind: step.kind }
+        Position {
+            axes: self.job.frame.apply(&step.joints),
+            pose: step.pose,
+            step: index,
+            kind: step.kind,
+            span: step.span,
+        }
     }
 
     /// A position postpro adds: the kinematics' values `joints`, the pose they give.
     pub(crate) fn added(&self, joints: Joints, step: usize, kind: StepKind) -> Position {
-        Position { axes: self.job.frame.apply(&joints), pose: self.kin.forward(&joints), step, kind }
+        Position { axes: self.job.frame.apply(&joints), pose: self.kin.forward(&joints), step, kind, span: self.span }
     }
 
     /// Tool-centre-point control on before the first motion in TCP mode (where no approach at the
@@ -944,6 +965,7 @@ impl<'a> Builder<'a> {
                             pose: poses[d],
                             step: q.index,
                             kind: StepKind::Linearized,
+                            span: q.step.span,
                         }
                     }
                 })

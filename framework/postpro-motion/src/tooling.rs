@@ -3,7 +3,7 @@
 //! `LOAD/TOOL`, `TLDATA`, `CUTTER`, NX `TOOL PATH/…,TOOL,name`) and from the shop's tool table,
 //! whose entries win: it is what the machine's controller holds.
 
-use postpro_cl::{ItemKind, Span, ToolPath, ToolShape};
+use postpro_cl::{Item, ItemKind, Span, ToolPath, ToolShape};
 use postpro_machine::model::Machine;
 use postpro_machine::tools::ToolTable;
 
@@ -44,6 +44,8 @@ pub struct Tooling {
 pub struct Change {
     /// The item the tool is loaded at.
     pub item: usize,
+    /// Its CL statement.
+    pub span: Span,
     /// The tool: an index into [`Tooling::tools`].
     pub tool: usize,
     /// The CL file loads no tool before its first motion: this one is assumed, and written.
@@ -59,44 +61,78 @@ impl Tooling {
 
 /// The tools of `path`, with `table`'s entries over the CL file's, and what had to be assumed.
 pub fn tooling(path: &ToolPath, table: Option<&ToolTable>) -> (Tooling, Vec<Warning>) {
-    let mut out = Tooling::default();
-    let mut warnings = Vec::new();
-    // The geometry given since the last change (NX, SOLIDWORKS: before the change; Fusion:
-    // before too; Creo and CATIA give none): it belongs to the next change, or to the current
-    // tool when no change follows before the motion.
-    let mut shape: Option<ToolShape> = None;
-    let mut pending: Option<usize> = None; // the change whose geometry may still follow
-    let mut moved = false;
-    for (k, item) in path.items.iter().enumerate() {
+    let mut reader = ToolingReader::new(table);
+    for item in &path.items {
+        reader.item(item);
+    }
+    reader.finish()
+}
+
+/// Finds the tools of a tool path as its items come (see [`tooling`]).
+#[derive(Clone, Debug)]
+pub struct ToolingReader<'a> {
+    table: Option<&'a ToolTable>,
+    out: Tooling,
+    warnings: Vec<Warning>,
+    /// The geometry given since the last change (NX, SOLIDWORKS: before the change; Fusion:
+    /// before too; Creo and CATIA give none): it belongs to the next change, or to the current
+    /// tool when no change follows before the motion.
+    shape: Option<ToolShape>,
+    /// The change whose geometry may still follow.
+    pending: Option<usize>,
+    moved: bool,
+    /// Items so far.
+    count: usize,
+}
+
+impl<'a> ToolingReader<'a> {
+    /// Before the first item, with the shop's tool table if any.
+    pub fn new(table: Option<&'a ToolTable>) -> ToolingReader<'a> {
+        ToolingReader {
+            table,
+            out: Tooling::default(),
+            warnings: Vec::new(),
+            shape: None,
+            pending: None,
+            moved: false,
+            count: 0,
+        }
+    }
+
+    /// The next item of the tool path.
+    pub fn item(&mut self, item: &Item) {
+        let k = self.count;
+        self.count += 1;
+        let (out, table) = (&mut self.out, self.table);
         match &item.kind {
-            ItemKind::ToolShape(s) => match pending {
+            ItemKind::ToolShape(s) => match self.pending {
                 // After the change, before its first motion (CUTTER after LOADTL): this tool's.
                 Some(c) => {
                     let tool = out.changes[c].tool;
                     fill_shape(&mut out.tools[tool], s, table);
                 }
-                None => shape = Some(*s),
+                None => self.shape = Some(*s),
             },
             ItemKind::ToolChange(t) => {
                 let tool = tool_index(&mut out.tools, t.number, t.name.clone(), t.adjust, table);
-                if let Some(s) = shape.take() {
+                if let Some(s) = self.shape.take() {
                     fill_shape(&mut out.tools[tool], &s, table);
                 }
-                out.changes.push(Change { item: k, tool, assumed: false });
-                pending = Some(out.changes.len() - 1);
+                out.changes.push(Change { item: k, span: item.span, tool, assumed: false });
+                self.pending = Some(out.changes.len() - 1);
             }
             ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_) => {
-                if !moved && out.changes.is_empty() {
+                if !self.moved && out.changes.is_empty() {
                     // No tool loaded before the first motion: the only tool of the table, or T1.
                     let only = table.filter(|t| t.tools.len() == 1).map(|t| t.tools[0].number);
                     let number = only.unwrap_or(1);
                     let tool = tool_index(&mut out.tools, number, None, None, table);
-                    if let Some(s) = shape.take() {
+                    if let Some(s) = self.shape.take() {
                         fill_shape(&mut out.tools[tool], &s, table);
                     }
-                    out.changes.push(Change { item: k, tool, assumed: true });
+                    out.changes.push(Change { item: k, span: item.span, tool, assumed: true });
                     let from = if only.is_some() { "the only tool of the tool table" } else { "assumed" };
-                    warnings.push(Warning {
+                    self.warnings.push(Warning {
                         span: item.span,
                         message: format!(
                             "the CL file loads no tool before its first move: T{number} ({from}) is written; \
@@ -104,13 +140,17 @@ pub fn tooling(path: &ToolPath, table: Option<&ToolTable>) -> (Tooling, Vec<Warn
                         ),
                     });
                 }
-                moved = true;
-                pending = None;
+                self.moved = true;
+                self.pending = None;
             }
             _ => {}
         }
     }
-    (out, warnings)
+
+    /// The tools and their changes, and what had to be assumed.
+    pub fn finish(self) -> (Tooling, Vec<Warning>) {
+        (self.out, self.warnings)
+    }
 }
 
 /// The index of tool `number` in `tools`, added (with the table's entry) if new.
@@ -180,6 +220,6 @@ pub fn kinematic_lengths(machine: &Machine, tooling: &Tooling, mode: Mode) -> Re
 }
 
 /// Where a tool with no length is needed: the span of its change, for the error.
-pub fn change_span(path: &ToolPath, change: &Change) -> Span {
-    path.items.get(change.item).map_or_else(Span::default, |i| i.span)
+pub fn change_span(change: &Change) -> Span {
+    change.span
 }

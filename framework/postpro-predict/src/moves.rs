@@ -43,6 +43,8 @@ pub enum BlockKind {
 pub struct Note {
     /// The step where it happened.
     pub step: usize,
+    /// Its CL statement.
+    pub span: postpro_cl::Span,
     /// What was assumed.
     pub text: String,
 }
@@ -87,6 +89,8 @@ pub struct Blocks {
     pub dwell_before: Window<f64>,
     /// Index of the block's end step in [`Solved::steps`].
     pub step: Window<usize>,
+    /// The CL statement of that step.
+    pub span: Window<postpro_cl::Span>,
     /// True when the block ends on a CL point (not on a point added by linearization).
     pub cl: Window<bool>,
     /// True when the block is one of the NC program's: false for the points within an arc and
@@ -141,6 +145,7 @@ impl Blocks {
         self.stop_before.forget_before(i);
         self.dwell_before.forget_before(i);
         self.step.forget_before(i);
+        self.span.forget_before(i);
         self.cl.forget_before(i);
         self.written.forget_before(i);
         self.along_axis.forget_before(i);
@@ -389,6 +394,7 @@ fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position
             None => {
                 out.notes.push(Note {
                     step: to.step,
+                    span: to.span,
                     text: "feed per revolution without a spindle speed: predicted at the largest feed".into(),
                 });
                 machine.cnc.feed_max / 60.0
@@ -397,8 +403,11 @@ fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position
         Feed::InverseTime(f, _) if f > 0.0 => 0.0,
         _ => {
             if state.feed.is_none() {
-                out.notes
-                    .push(Note { step: to.step, text: "no feed programmed: predicted at the largest feed".into() });
+                out.notes.push(Note {
+                    step: to.step,
+                    span: to.span,
+                    text: "no feed programmed: predicted at the largest feed".into(),
+                });
             }
             machine.cnc.feed_max / 60.0
         }
@@ -461,6 +470,7 @@ fn push_block(out: &mut Blocks, machine: &Machine, timing: Timing, to: &Position
     out.nominal.push(nominal);
     out.kind.push(kind);
     out.step.push(to.step);
+    out.span.push(to.span);
     // The one place blocks get their operation: an operation opens with its first block.
     if let Some(name) = state.operation.take() {
         out.operations.push(name);

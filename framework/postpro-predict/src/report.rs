@@ -32,6 +32,8 @@ use postpro_machine::model::Machine;
 pub struct BlockResult {
     /// Index of the block's end step in the solved tool path.
     pub step: usize,
+    /// The CL statement of that step.
+    pub span: postpro_cl::Span,
     /// Feed move, reorientation or rapid.
     pub kind: BlockKind,
     /// A block of the NC program (false: a point within one, which the prediction follows).
@@ -222,6 +224,10 @@ pub struct Mark {
     pub lost: f64,
     /// Its operation (index into [`Prediction::operations`]).
     pub operation: usize,
+    /// The step its first block ends at, and that step's CL statement.
+    pub step: usize,
+    /// The CL statement of [`Self::step`].
+    pub span: postpro_cl::Span,
 }
 
 /// A prediction.
@@ -306,7 +312,18 @@ impl MarkFinder {
         }
         let own = b.lost - b.stop_lost;
         let (run, causes) = self.open.get_or_insert_with(|| {
-            let run = Mark { number: 0, first: i, last: i, blocks: 0, ratio, cause: b.cause, lost: 0.0, operation: op };
+            let run = Mark {
+                number: 0,
+                first: i,
+                last: i,
+                blocks: 0,
+                ratio,
+                cause: b.cause,
+                lost: 0.0,
+                operation: op,
+                step: b.step,
+                span: b.span,
+            };
             (run, BTreeMap::new())
         });
         run.last = i;
@@ -521,6 +538,7 @@ impl Collector {
             let programmed = per_minute(blocks.feed[i]);
             self.results.push(BlockResult {
                 step: blocks.step[i],
+                span: blocks.span[i],
                 kind: blocks.kind[i],
                 written: blocks.written.get(i).copied().unwrap_or(true),
                 length: blocks.length[i],
