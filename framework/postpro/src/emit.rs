@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use indicatif::{ProgressBar, ProgressStyle};
 use postpro_emit::{Dialect, EmitError, Mode, Options, builtin_template, dialect, write_program};
 
-use crate::job::{fail, prepare};
+use crate::job::fail;
 use crate::predict::{self, MarkArgs, PredictionArgs};
 use crate::report;
 use crate::setup::SetupArgs;
@@ -137,6 +137,16 @@ impl ModeArg {
         machine: &postpro_machine::model::Machine,
         dialect: &Dialect,
     ) -> Mode {
+        self.resolve_turning(path.turns_tool_while_cutting(), machine, dialect)
+    }
+
+    /// [`ModeArg::resolve`] for a tool path that turns the tool while cutting or not.
+    pub(crate) fn resolve_turning(
+        self,
+        turns_tool: bool,
+        machine: &postpro_machine::model::Machine,
+        dialect: &Dialect,
+    ) -> Mode {
         match self {
             ModeArg::G1 => Mode::G1,
             ModeArg::InverseTime => Mode::InverseTime,
@@ -144,7 +154,7 @@ impl ModeArg {
             ModeArg::Tcp => Mode::Tcp,
             ModeArg::Auto => {
                 let rotary = machine.axes.iter().any(|a| a.kind == postpro_machine::model::AxisKind::Rotary);
-                if !rotary || !path.turns_tool_while_cutting() {
+                if !rotary || !turns_tool {
                     Mode::G1
                 } else if dialect.tcp != postpro_emit::TcpStyle::None {
                     Mode::Tcp
@@ -223,21 +233,13 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
             }
         }
     };
-    let job = match prepare(file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), crate::job::WRITTEN, &stage) {
-        Ok(job) => job,
-        Err(code) => return code,
-    };
-    let mode = job.mode;
-    let checked = postpro_emit::check_mode(dialect, mode).and_then(|()| {
-        if mode == Mode::Tcp { postpro_emit::check_orientation(dialect, tcp_orientation) } else { Ok(()) }
-    });
-    if let Err(e) = checked {
-        stage("");
-        return fail(&report::render(&e), 1);
-    }
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
-    let writing = Writing {
-        mode,
+    let request = crate::stream::Request {
+        file,
+        chosen: &chosen,
+        ikt: &args.ikt,
+        setup: &args.setup,
+        mode: args.mode,
         dialect,
         template: &template,
         output: &output,
@@ -252,7 +254,19 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         insert_verbatim: args.insert == InsertArg::Verbatim,
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
     };
-    write_job(&job, &writing, &stage)
+    crate::stream::run(&request, &stage)
+}
+
+/// The dialect can write `mode` (and, in TCP mode, the orientation as asked), or the rendered
+/// error.
+pub(crate) fn check_writing(
+    dialect: &Dialect,
+    mode: Mode,
+    orientation: postpro_emit::TcpOrientation,
+) -> Result<(), ExitCode> {
+    let checked = postpro_emit::check_mode(dialect, mode)
+        .and_then(|()| if mode == Mode::Tcp { postpro_emit::check_orientation(dialect, orientation) } else { Ok(()) });
+    checked.map_err(|e| fail(&report::render(&e), 1))
 }
 
 /// How a solved job is written.
@@ -301,8 +315,14 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
                 eprintln!("note: {}: prediction: {}", source.location(at), note.text);
             }
             let marks = predicted.marks(&marking.rules(args));
-            let annotations = predict::annotations(&predicted, &marks, machine);
-            let summary = predict::header(&predicted, args, mode, &marks, job);
+            let annotations = predict::annotations(&marks, machine);
+            let summary = predict::header(
+                (&predicted.totals(), &predicted.operations),
+                args,
+                mode,
+                &marks,
+                (machine, &job.source),
+            );
             (Some(summary), annotations)
         }
     };
@@ -396,25 +416,39 @@ pub(crate) fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> Result<(), EmitError>,
 ) -> Result<(), EmitError> {
-    let io = |e: std::io::Error| EmitError::Io { message: e.to_string() };
+    write_atomically_with(path, write, |e| EmitError::Io { message: e.to_string() })
+}
+
+/// [`write_atomically`] with the error type of `write` (`io` makes one of an I/O error).
+pub(crate) fn write_atomically_with<E>(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> Result<(), E>,
+    io: impl Fn(std::io::Error) -> E,
+) -> Result<(), E> {
     if is_special_file(path) {
-        let file = std::fs::OpenOptions::new().write(true).open(path).map_err(io)?;
+        let file = std::fs::OpenOptions::new().write(true).open(path).map_err(&io)?;
         let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
         write(&mut out)?;
         return out.flush().map_err(io);
     }
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map_or_else(|| "program".into(), |n| n.to_string_lossy().into_owned());
-    let temp = dir.join(format!(".{name}.postpro-{}.tmp", std::process::id()));
-    let result = std::fs::File::create(&temp).map_err(io).and_then(|file| {
+    let temp = beside(path, "tmp");
+    let result = std::fs::File::create(&temp).map_err(&io).and_then(|file| {
         let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
         write(&mut out)?;
         let file = out.into_inner().map_err(|e| io(e.into_error()))?;
-        file.sync_all().map_err(io)?;
-        std::fs::rename(&temp, path).map_err(io)
+        file.sync_all().map_err(&io)?;
+        std::fs::rename(&temp, path).map_err(&io)
     });
     if result.is_err() {
         let _ = std::fs::remove_file(&temp);
     }
     result
+}
+
+/// A file of postpro's own beside `path` (hidden, with this process's id and `suffix`): in the
+/// same folder, so that a rename over `path` is atomic.
+pub(crate) fn beside(path: &Path, suffix: &str) -> PathBuf {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map_or_else(|| "program".into(), |n| n.to_string_lossy().into_owned());
+    dir.join(format!(".{name}.postpro-{}.{suffix}", std::process::id()))
 }

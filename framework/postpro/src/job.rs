@@ -74,9 +74,14 @@ const PRINTED_WARNINGS: usize = 20;
 /// Says on standard error what the reader warned about and what it did not interpret (each word
 /// with its count, as `check` does), with `notes` also what it passed over; returns the number
 /// of warnings.
-fn report_reading(source: &Source, path: &ToolPath, strict: bool, notes: bool) -> usize {
+pub(crate) fn report_reading(
+    source: &Source,
+    (info, diagnostics): (&postpro_cl::ProgramInfo, &[postpro_cl::Diagnostic]),
+    strict: bool,
+    notes: bool,
+) -> usize {
     let what = if strict { "error" } else { "warning" };
-    let warnings: Vec<_> = path.diagnostics.iter().filter(|d| !d.is_error()).collect();
+    let warnings: Vec<_> = diagnostics.iter().filter(|d| !d.is_error()).collect();
     for d in warnings.iter().take(PRINTED_WARNINGS) {
         eprintln!("{what}: {}: {}", source.location(d.span.start as usize), d.message);
     }
@@ -88,8 +93,7 @@ fn report_reading(source: &Source, path: &ToolPath, strict: bool, notes: bool) -
         );
     }
     let words = |unknown: bool| -> Vec<String> {
-        path.info
-            .uninterpreted
+        info.uninterpreted
             .iter()
             .filter(|(_, u)| u.unknown == unknown)
             .map(|(w, u)| format!("{w} ×{} (first at {})", u.count, source.location(u.first.start as usize)))
@@ -102,8 +106,8 @@ fn report_reading(source: &Source, path: &ToolPath, strict: bool, notes: bool) -
     if notes && !passive.is_empty() {
         eprintln!("note: known words without effect on the path, passed over: {}", passive.join(", "));
     }
-    if notes && path.info.listing_lines > 0 {
-        eprintln!("note: {} lines of the file are not APT (a listing's header and footer)", path.info.listing_lines);
+    if notes && info.listing_lines > 0 {
+        eprintln!("note: {} lines of the file are not APT (a listing's header and footer)", info.listing_lines);
     }
     warnings.len() + usize::from(!unknown.is_empty())
 }
@@ -146,7 +150,7 @@ pub(crate) fn prepare(
         return Err(fail(&format!("error: {} does not read; {nothing}\n", source.name()), 1));
     }
     // The main job says what it passes over; the other commands only what may matter.
-    let mut warnings = report_reading(&source, &path, setup.strict, nothing == WRITTEN);
+    let mut warnings = report_reading(&source, (&path.info, &path.diagnostics), setup.strict, nothing == WRITTEN);
     let moves = path.items.iter().any(|i| {
         matches!(i.kind, postpro_cl::ItemKind::Move(_) | postpro_cl::ItemKind::Arc(_) | postpro_cl::ItemKind::Nurbs(_))
     });
@@ -246,36 +250,40 @@ impl Job {
 }
 
 impl Job {
-    /// The working planes the program's 3+2 set-ups are written in, in `dialect`: its own, where
-    /// it has them, the mode writes axis values (`g1`, `inverse-time`), the machine's rotary axes
-    /// carry the part and no feed move turns them. Where the program has tilted set-ups and no
-    /// plane can be used, a note says why.
+    /// The working planes the program's 3+2 set-ups are written in (see [`planes_for`]).
     fn planes(&self, dialect: &Dialect) -> Option<postpro_motion::PlaneKind> {
-        let kin = self.solver.kinematics();
-        let chain = &self.machine.chain;
-        let steps = &self.solved.steps;
-        let rotaries: Vec<usize> = chain.part.iter().chain(&chain.tool).copied().collect();
-        let tilted = steps.iter().any(|s| rotaries.iter().any(|&i| s.joints[i].abs() > 1e-9));
-        let why = if dialect.planes.is_none() {
-            format!("the {} dialect has no working planes", dialect.name)
-        } else if !matches!(self.mode, Mode::G1 | Mode::InverseTime) {
-            format!("{} mode writes no working planes", self.mode.name())
-        } else if !chain.tool.is_empty() {
-            format!(
-                "working planes are written for machines whose rotary axes carry the part, not {}",
-                self.machine.name
-            )
-        } else if postpro_motion::simultaneous(kin, steps) {
-            // Simultaneous motion: there is no set-up to speak of.
-            return None;
-        } else {
-            return dialect.planes.filter(|_| !chain.part.is_empty());
-        };
-        if tilted && self.mode != Mode::Tcp {
-            eprintln!("note: the 3+2 set-ups are written as axis values, not in working planes: {why}");
-        }
-        None
+        let survey = postpro_motion::Survey::of(self.solver.kinematics(), &self.solved.steps);
+        planes_for(&self.machine, self.mode, dialect, &survey)
     }
+}
+
+/// The working planes the 3+2 set-ups of a program whose steps `survey` describes are written
+/// in, in `dialect` on `machine`: its own, where it has them, the mode writes axis values (`g1`,
+/// `inverse-time`), the machine's rotary axes carry the part and no feed move turns them. Where
+/// the program has tilted set-ups and no plane can be used, a note says why.
+pub(crate) fn planes_for(
+    machine: &Machine,
+    mode: Mode,
+    dialect: &Dialect,
+    survey: &postpro_motion::Survey,
+) -> Option<postpro_motion::PlaneKind> {
+    let chain = &machine.chain;
+    let why = if dialect.planes.is_none() {
+        format!("the {} dialect has no working planes", dialect.name)
+    } else if !matches!(mode, Mode::G1 | Mode::InverseTime) {
+        format!("{} mode writes no working planes", mode.name())
+    } else if !chain.tool.is_empty() {
+        format!("working planes are written for machines whose rotary axes carry the part, not {}", machine.name)
+    } else if survey.simultaneous {
+        // Simultaneous motion: there is no set-up to speak of.
+        return None;
+    } else {
+        return dialect.planes.filter(|_| !chain.part.is_empty());
+    };
+    if survey.tilted && mode != Mode::Tcp {
+        eprintln!("note: the 3+2 set-ups are written as axis values, not in working planes: {why}");
+    }
+    None
 }
 
 /// The motion program of another solved tool path of the same machine (a re-oriented program),

@@ -16,6 +16,7 @@ mod predict;
 mod report;
 mod setup;
 mod solve;
+mod stream;
 
 use std::process::ExitCode;
 

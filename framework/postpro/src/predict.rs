@@ -10,7 +10,7 @@ use std::process::ExitCode;
 
 use postpro_emit::{Annotation, Mode};
 use postpro_machine::model::{AxisKind, Machine};
-use postpro_predict::{BlockKind, Cause, Limit, Mark, MarkRules, Planner, Prediction, Timing, describe};
+use postpro_predict::{BlockKind, Cause, Limit, Mark, MarkRules, Planner, Prediction, Timing, Totals, describe};
 
 use crate::emit::ModeArg;
 use crate::html;
@@ -163,6 +163,11 @@ fn run_with(
     predict_program(program, job.solver.kinematics(), &options)
 }
 
+/// The prediction's options for a program in `mode`, as the command line says.
+pub(crate) fn options_for(mode: Mode, args: &PredictionArgs) -> postpro_predict::Options {
+    options(mode, args.planner(), args.threshold(), false, None)
+}
+
 fn options(
     mode: Mode,
     planner: Planner,
@@ -204,11 +209,11 @@ pub(crate) fn mark_text(mark: &Mark, machine: &Machine) -> String {
 }
 
 /// The slowdown comments for the NC program: one before the first block of each mark.
-pub(crate) fn annotations(prediction: &Prediction, marks: &[Mark], machine: &Machine) -> Vec<Annotation> {
+pub(crate) fn annotations(marks: &[Mark], machine: &Machine) -> Vec<Annotation> {
     marks
         .iter()
         .map(|m| Annotation {
-            step: prediction.blocks[m.first].step,
+            step: m.step,
             text: format!("slowdown #{}: {}", m.number, mark_text(m, machine)),
             slowdown: Some(m.number),
         })
@@ -228,16 +233,14 @@ pub(crate) fn operation_name(name: &str) -> &str {
     if name.is_empty() { "(unnamed)" } else { name }
 }
 
-/// The header summary of the NC program.
+/// The header summary of the NC program, the marks' CL lines from `source`.
 pub(crate) fn header(
-    prediction: &Prediction,
+    (totals, operations): (&Totals, &[postpro_predict::Operation]),
     args: &PredictionArgs,
     mode: Mode,
     marks: &[Mark],
-    job: &Job,
+    (machine, source): (&Machine, &postpro_cl::Source),
 ) -> postpro_emit::Prediction {
-    let totals = prediction.totals();
-    let machine = &job.machine;
     postpro_emit::Prediction {
         cycle_time: totals.cycle_time,
         time_lost: totals.time_lost,
@@ -245,8 +248,7 @@ pub(crate) fn header(
         share_below: totals.share_below(),
         planner: planner_name(effective(args.planner(), mode)).to_string(),
         slowdowns: marks.len(),
-        operations: prediction
-            .operations
+        operations: operations
             .iter()
             .map(|o| postpro_emit::OperationPrediction {
                 // A name is one comment's worth: cut where a line could grow too long.
@@ -259,17 +261,14 @@ pub(crate) fn header(
             .collect(),
         worst: worst(marks, 5)
             .into_iter()
-            .map(|m| {
-                let step = prediction.blocks[m.first].step;
-                postpro_emit::MarkedSlowdown {
-                    number: m.number,
-                    step,
-                    line: line(job, step),
-                    nc_line: None,
-                    nc_block: None,
-                    time_lost: m.lost,
-                    text: mark_text(m, machine),
-                }
+            .map(|m| postpro_emit::MarkedSlowdown {
+                number: m.number,
+                step: m.step,
+                line: source.line_col(m.span.start as usize).line,
+                nc_line: None,
+                nc_block: None,
+                time_lost: m.lost,
+                text: mark_text(m, machine),
             })
             .collect(),
     }

@@ -1,0 +1,601 @@
+//! The main job streamed: the CL file is read three times and nothing proportional to its
+//! length is held apart from its text and a few bits per CL point.
+//!
+//! 1. **Survey**: the reader's items, their targets and the policy's first pass (the branch
+//!    graph), the tools and their changes, whether the tool turns while cutting (the mode `auto`
+//!    picks), what the reader passed over.
+//! 2. **Prediction**: the items again, the policy's second pass, the linearization and the motion
+//!    program, each a stage handing on to the next; the prediction reads the blocks as they come
+//!    and keeps its look-ahead; the steps are surveyed for the 3+2 set-ups.
+//! 3. **Writing**: the same stages again, the motion program now in its final frame, formatted and
+//!    rendered block by block into a scratch file beside the output, the travels checked; the
+//!    header (which names the lines of the worst slowdowns) is written last, before the body.
+//!
+//! Every pass runs the same stages on the same items, so the step and block numbers the
+//! prediction's marks name are those of the program written. An error in any pass leaves
+//! nothing written (the output is renamed into place at the very end).
+
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::Path;
+use std::process::ExitCode;
+
+use postpro_cl::{Item, ItemKind, ItemSink, Motion, ProgramInfo, Source, Span, TextKind, ToolAxis};
+use postpro_emit::{Dialect, EmitError, Options, WriteError};
+use postpro_kin::{BranchGraph, Collected, Kinematics, Linearizer, Linearizing, Placer, SolveError, Stretches, Target};
+use postpro_machine::model::{AxisKind, Machine, Travel};
+use postpro_motion::travel::TravelCheck;
+use postpro_motion::{MotionSink, SetUps, Stage, Survey, Surveyor, ToolingReader};
+use postpro_predict::moves::Reader;
+use postpro_predict::{Blocks, MarkFinder, Predictor};
+
+use crate::emit::ModeArg;
+use crate::job::{Shapes, WRITTEN, fail, warn_all};
+use crate::predict::{MarkArgs, PredictionArgs};
+use crate::report;
+use crate::setup::SetupArgs;
+use crate::solve::{Chosen, IktArgs};
+
+/// What the main job is asked for.
+pub(crate) struct Request<'a> {
+    /// The CL file.
+    pub(crate) file: &'a Path,
+    /// The machine.
+    pub(crate) chosen: &'a Chosen,
+    /// The policy's options.
+    pub(crate) ikt: &'a IktArgs,
+    /// The set-up's options.
+    pub(crate) setup: &'a SetupArgs,
+    /// The output mode asked for.
+    pub(crate) mode: ModeArg,
+    /// Controller dialect.
+    pub(crate) dialect: &'a Dialect,
+    /// The template's name and text.
+    pub(crate) template: &'a (String, String),
+    /// Where (`-` for standard output).
+    pub(crate) output: &'a Path,
+    /// The program's name.
+    pub(crate) program_name: String,
+    /// Number the blocks.
+    pub(crate) block_numbers: bool,
+    /// How arcs, cycles and 3+2 set-ups are written.
+    pub(crate) shapes: Shapes,
+    /// How TCP mode gives the tool's orientation.
+    pub(crate) tcp_orientation: postpro_emit::TcpOrientation,
+    /// CL `INSERT` text as blocks (else as comments).
+    pub(crate) insert_verbatim: bool,
+    /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
+    pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
+}
+
+/// What the first pass found.
+struct Surveyed {
+    info: ProgramInfo,
+    diagnostics: Vec<postpro_cl::Diagnostic>,
+    choice: postpro_kin::Choice,
+    /// Where the branch graph found a pose it cannot reach (reported once the reading is said).
+    graph_error: Option<SolveError>,
+    tooling: postpro_motion::Tooling,
+    tool_warnings: Vec<postpro_motion::Warning>,
+    turns_tool: bool,
+    moves: bool,
+    inserts: (usize, Option<Span>),
+}
+
+/// The first pass's sink.
+struct SurveySink<'a> {
+    graph: BranchGraph<'a>,
+    tolerance: f64,
+    targets: Vec<Target>,
+    tooling: ToolingReader<'a>,
+    axis: Option<ToolAxis>,
+    turns_tool: bool,
+    moves: bool,
+    inserts: (usize, Option<Span>),
+    error: Option<SolveError>,
+}
+
+impl ItemSink for SurveySink<'_> {
+    fn push(&mut self, item: Item) {
+        self.tooling.item(&item);
+        match &item.kind {
+            ItemKind::Move(m) => {
+                let turned = self.axis.is_some_and(|a| (a.into_inner() - m.axis.into_inner()).norm() > 1e-6);
+                self.turns_tool |= turned && matches!(m.motion, Motion::Feed(_));
+                self.axis = Some(m.axis);
+            }
+            ItemKind::Text(TextKind::Insert, _) => {
+                self.inserts.0 += 1;
+                self.inserts.1.get_or_insert(item.span);
+            }
+            _ => {}
+        }
+        if !matches!(item.kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_)) {
+            return;
+        }
+        self.moves = true;
+        if self.error.is_some() {
+            return;
+        }
+        self.targets.clear();
+        postpro_kin::targets_of(&item, self.tolerance, &mut self.targets);
+        for t in &self.targets {
+            if let Err(e) = self.graph.push(t) {
+                self.error = Some(e);
+                return;
+            }
+        }
+    }
+}
+
+/// Why a pass stopped.
+enum PassError {
+    Solve(SolveError),
+    Motion(postpro_motion::MotionError),
+}
+
+impl PassError {
+    fn render(self, source: &Source) -> String {
+        match self {
+            PassError::Solve(e) => report::render_with_source(e, source.name(), source.text()),
+            PassError::Motion(e) => report::render_with_source(e, source.name(), source.text()),
+        }
+    }
+}
+
+/// The stages from the reader's items to motion blocks: targets, the policy's second pass, the
+/// linearization (each tool with its own length) and the motion program.
+struct Motions<'a> {
+    tolerance: f64,
+    placer: Placer<'a>,
+    linearizer: Linearizer,
+    stretches: Stretches<'a>,
+    targets: Vec<Target>,
+    steps: Collected,
+    stage: Stage<'a>,
+    surveyor: Option<Surveyor<'a>>,
+    index: usize,
+    error: Option<PassError>,
+}
+
+impl ItemSink for Motions<'_> {
+    fn push(&mut self, item: Item) {
+        if self.error.is_some() {
+            return;
+        }
+        let i = self.index;
+        self.index += 1;
+        self.steps.steps.clear();
+        self.steps.decisions.clear();
+        if matches!(item.kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_)) {
+            self.targets.clear();
+            postpro_kin::targets_of(&item, self.tolerance, &mut self.targets);
+            for t in &self.targets {
+                if self.stretches.enter(t.span.start) {
+                    self.linearizer.restart();
+                }
+                let tool = self.stretches.tool();
+                let mut out = Linearizing { linearizer: &mut self.linearizer, kin: &tool, out: &mut self.steps };
+                if let Err(e) = self.placer.push(&tool, t, &mut out) {
+                    self.error = Some(PassError::Solve(e));
+                    return;
+                }
+            }
+            if let Some(s) = self.surveyor.as_mut() {
+                self.steps.steps.iter().for_each(|step| s.step(step));
+            }
+        }
+        if let Err(e) = self.stage.item(i, &item, &self.steps.steps, &self.steps.decisions) {
+            self.error = Some(PassError::Motion(e));
+        }
+    }
+}
+
+impl Motions<'_> {
+    /// The end of the pass: the motion program's counts and warnings, and the survey of the steps.
+    fn finish(self) -> Result<(postpro_motion::Summary, Option<Survey>), PassError> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        let summary = self.stage.finish(self.linearizer.inserted()).map_err(PassError::Motion)?;
+        Ok((summary, self.surveyor.map(Surveyor::finish)))
+    }
+}
+
+/// The prediction as motion blocks come.
+struct Predicting<'a> {
+    machine: &'a Machine,
+    reader: Reader,
+    blocks: Blocks,
+    predictor: Predictor<'a>,
+    marks: MarkFinder,
+}
+
+impl Predicting<'_> {
+    fn take(&mut self, range: std::ops::Range<usize>) {
+        for i in range {
+            let op = self.blocks.operation[i] as usize;
+            self.marks.block(i, self.predictor.result(i), op);
+        }
+    }
+}
+
+impl MotionSink for Predicting<'_> {
+    fn block(&mut self, block: postpro_motion::Block) {
+        self.reader.block(&mut self.blocks, self.machine, &block);
+        let done = self.predictor.advance(&self.blocks);
+        self.take(done);
+        let from = self.predictor.needs_from(&self.blocks);
+        self.blocks.forget_before(from);
+    }
+}
+
+/// Drops the motion blocks (a pass that only surveys).
+struct Dropped;
+
+impl MotionSink for Dropped {
+    fn block(&mut self, _: postpro_motion::Block) {}
+}
+
+/// The blocks of the writing pass to the travel check, then to the emitter.
+struct Checked<'a> {
+    travel: TravelCheck<'a>,
+    error: Option<postpro_motion::MotionError>,
+    next: &'a mut dyn MotionSink,
+}
+
+impl MotionSink for Checked<'_> {
+    fn block(&mut self, block: postpro_motion::Block) {
+        if self.error.is_none()
+            && let Err(e) = self.travel.block(&block)
+        {
+            self.error = Some(e);
+        }
+        self.next.block(block);
+    }
+}
+
+/// The main job, streamed (see the module's documentation); `stage` is told what is being done
+/// (`""` when done).
+pub(crate) fn run(request: &Request<'_>, stage: &dyn Fn(&str)) -> ExitCode {
+    let code = main_job(request, stage).unwrap_or_else(|code| code);
+    stage("");
+    code
+}
+
+fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCode> {
+    let (dialect, output) = (how.dialect, how.output);
+    let mut machine = how.chosen.machine.clone();
+    if let Err(message) = how.ikt.apply(&mut machine) {
+        return Err(fail(&format!("error: {message}\n"), 2));
+    }
+    let setup = how.setup.load().map_err(|message| fail(&format!("{message}error: {WRITTEN}\n"), 1))?;
+    if let Some(offset) = setup.part_origin
+        && !postpro_motion::frame::place_part(&mut machine, offset)
+    {
+        eprintln!(
+            "warning: {} carries no part on a rotary axis: the part origin of the set-up has no effect (the program \
+             is written from the part zero)",
+            machine.name
+        );
+    }
+    let source = Source::from_path(how.file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
+    let read_options = how.setup.read.options();
+    // Linear travels are checked on the program, in the work offset's frame, once it is built:
+    // the kinematics' machine coordinates are those of the definition's assumed part zero.
+    let mut solve_machine = machine.clone();
+    for a in &mut solve_machine.axes {
+        if a.kind == AxisKind::Linear {
+            a.travel = Travel::Endless;
+        }
+    }
+    let solver = how.chosen.solver(&solve_machine)?;
+    let kin = solver.kinematics();
+    let policy = &solve_machine.policy;
+    let render = |e: PassError| match solver.take_error() {
+        // A plugin's failure is why the solve went wrong.
+        Some(e) => fail(&report::render(&e), 1),
+        None => fail(&e.render(&source), 1),
+    };
+
+    // 1. The survey.
+    stage("reading");
+    let surveyed = survey(&source, &read_options, kin, policy, setup.tool_table.as_ref());
+    if surveyed.diagnostics.iter().any(postpro_cl::Diagnostic::is_error) {
+        for d in surveyed.diagnostics.iter().filter(|d| d.is_error()) {
+            eprint!("{}", d.render(&source));
+        }
+        return Err(fail(&format!("error: {} does not read; {WRITTEN}\n", source.name()), 1));
+    }
+    let strict = how.setup.strict;
+    let mut warnings = crate::job::report_reading(&source, (&surveyed.info, &surveyed.diagnostics), strict, true);
+    if !surveyed.moves {
+        let why = if surveyed.info.apt_source {
+            "it is an APT part program (source language: geometry and motion statements for an APT processor), \
+             not CL data; run it through an APT processor first"
+        } else {
+            "it has no GOTO, arc or NURBS"
+        };
+        return Err(fail(&format!("error: {} has no motion: {why}; {WRITTEN}\n", source.name()), 1));
+    }
+    let mode = how.mode.resolve_turning(surveyed.turns_tool, &machine, dialect);
+    let job =
+        postpro_motion::Job::with_tooling(kin, surveyed.tooling.clone(), mode, setup.work_offset.unwrap_or_default());
+    let mut job = job.map_err(|e| {
+        let rendered = report::render_with_source(e, source.name(), source.text());
+        fail(&format!("{rendered}error: {WRITTEN}\n"), 1)
+    })?;
+    warnings += warn_all(&source, &surveyed.tool_warnings, strict);
+    if strict && warnings > 0 {
+        return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
+    }
+    if let Some(e) = surveyed.graph_error.clone() {
+        return Err(render(PassError::Solve(e)));
+    }
+    crate::emit::check_writing(dialect, mode, how.tcp_orientation)?;
+
+    // 2. The prediction, and the survey of the steps.
+    stage(if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });
+    let unknown: BTreeSet<String> =
+        surveyed.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
+    let mut motion_options = postpro_emit::motion_options(dialect, mode, !how.shapes.linear_arcs);
+    motion_options.cycles = !how.shapes.expand_cycles;
+    let timing =
+        if mode.feeds_the_tip() { postpro_predict::Timing::TipFeed } else { postpro_predict::Timing::AxisFeed };
+    let mut predicting = how.prediction.map(|(prediction, marks)| Predicting {
+        machine: kin.machine(),
+        reader: Reader::new(timing),
+        blocks: Blocks::new(kin.machine()),
+        predictor: Predictor::new(kin, &crate::predict::options_for(mode, prediction), kin.machine().axes.len(), true),
+        marks: MarkFinder::new(marks.rules(prediction)),
+    });
+    let mut dropped = Dropped;
+    let sink: &mut dyn MotionSink = match predicting.as_mut() {
+        Some(p) => p,
+        None => &mut dropped,
+    };
+    let predicted = Pass { source: &source, read_options: &read_options, kin, policy, job: &job, unknown: &unknown }
+        .run(&motion_options, SetUps::default(), &surveyed.choice, true, sink);
+    let (summary, survey) = predicted.map_err(render)?;
+    let survey = survey.unwrap_or_default();
+    let warnings = warn_all(&source, &summary.warnings, strict);
+    if strict && warnings > 0 {
+        return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
+    }
+    let planes = if how.shapes.planes { crate::job::planes_for(&machine, mode, dialect, &survey) } else { None };
+    if planes.is_some() {
+        job.frame = postpro_motion::part_zero_frame(kin);
+    }
+    motion_options.planes = planes;
+    job.work_offset = setup.work_offset.unwrap_or_else(|| dialect.default_work_offset());
+    let (prediction, annotations) = match (predicting, how.prediction) {
+        (Some(mut p), Some((args, _))) => {
+            let done = p.predictor.finish(&p.blocks);
+            p.take(done);
+            for note in &p.blocks.notes {
+                eprintln!("note: {}: prediction: {}", source.location(note.span.start as usize), note.text);
+            }
+            let marks = p.marks.finish();
+            let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
+            let header = crate::predict::header((&totals, &operations), args, mode, &marks, (&machine, &source));
+            (Some(header), crate::predict::annotations(&marks, &machine))
+        }
+        _ => (None, Vec::new()),
+    };
+
+    // 3. The program.
+    stage("writing the program");
+    let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
+    let options = Options {
+        units: setup.units(&machine),
+        program_name: how.program_name.clone(),
+        source_name: source.name().to_string(),
+        block_numbers: how.block_numbers,
+        tcp_orientation: how.tcp_orientation,
+        insert_verbatim: how.insert_verbatim,
+        prediction,
+        annotations,
+    };
+    let facts = postpro_motion::Program {
+        mode,
+        part: surveyed.info.part_name.clone(),
+        work_offset: job.work_offset,
+        origin: job.frame.describe(),
+        tools: job.tooling.tools.clone(),
+        blocks: Vec::new(),
+        summary: summary.clone(),
+    };
+    let pass = Pass { source: &source, read_options: &read_options, kin, policy, job: &job, unknown: &unknown };
+    let write = |out: &mut dyn Write| -> Result<(), Failure> {
+        let mut scratch = ScratchFile::beside(output)?;
+        let mut travel = Vec::new();
+        let mut produce = |sink: &mut dyn MotionSink| -> Result<(), PassError> {
+            let mut checked =
+                Checked { travel: TravelCheck::new(&machine, setup.work_offset_at.as_ref()), error: None, next: sink };
+            pass.run(&motion_options, survey.set_ups.clone(), &surveyed.choice, false, &mut checked)?;
+            if let Some(e) = checked.error {
+                return Err(PassError::Motion(e));
+            }
+            travel = checked.travel.finish();
+            Ok(())
+        };
+        let template = (how.template.0.as_str(), how.template.1.as_str());
+        postpro_emit::write_program_with(
+            &facts,
+            &machine,
+            dialect,
+            &options,
+            template,
+            out,
+            &mut scratch.file,
+            &mut produce,
+        )
+        .map_err(|e| match e {
+            WriteError::Emit(e) => Failure::Emit(e),
+            WriteError::Produce(e) => Failure::Pass(e),
+        })?;
+        let count = warn_all(&source, &travel, strict);
+        if strict && count > 0 {
+            return Err(Failure::Refused(format!(
+                "error: {count} warning(s), and --strict makes them errors; {WRITTEN}\n"
+            )));
+        }
+        Ok(())
+    };
+    let io = |e: std::io::Error| Failure::Emit(EmitError::Io { message: e.to_string() });
+    let written = if output == Path::new("-") {
+        let stdout = std::io::stdout();
+        let mut out = std::io::BufWriter::new(stdout.lock());
+        write(&mut out).and_then(|()| out.flush().map_err(io))
+    } else {
+        crate::emit::write_atomically_with(output, write, io)
+    };
+    if let Err(e) = written {
+        let message = match e {
+            Failure::Emit(EmitError::Io { message }) => {
+                format!("error: cannot write {}: {message}\n", output.display())
+            }
+            Failure::Emit(e) => report::render(&e),
+            Failure::Pass(e) => return Err(render(e)),
+            Failure::Refused(message) => message,
+        };
+        return Err(fail(&message, 1));
+    }
+    let (inserts, first_insert) = surveyed.inserts;
+    if let (false, Some(first)) = (how.insert_verbatim, first_insert) {
+        eprintln!(
+            "note: {inserts} INSERT text(s) written as comments (first at {}); `--insert verbatim` passes them to the \
+             controller as blocks",
+            source.location(first.start as usize)
+        );
+    }
+    if output != Path::new("-") {
+        eprintln!(
+            "wrote {} for {} ({} CL points, {} added by linearization, {} IKT decisions)",
+            output.display(),
+            machine.name,
+            summary.cl_points,
+            summary.linearized_points,
+            summary.decisions
+        );
+        if let Some((cycle, lost, slowdowns)) = predicted_time {
+            eprintln!("predicted cycle time {cycle:.1} s, {lost:.1} s lost to slowdowns, {slowdowns} slowdowns marked");
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Why the program was not written.
+enum Failure {
+    Emit(EmitError),
+    Pass(PassError),
+    /// A check after writing refused it (`--strict`): the message.
+    Refused(String),
+}
+
+/// The scratch file the body of the program waits in, beside the output (or in the temporary
+/// folder for standard output and devices), removed when dropped.
+struct ScratchFile {
+    path: std::path::PathBuf,
+    file: std::fs::File,
+}
+
+impl ScratchFile {
+    fn beside(output: &Path) -> Result<ScratchFile, Failure> {
+        let folder = output == Path::new("-") || crate::emit::is_special_file(output);
+        let path = if folder {
+            std::env::temp_dir().join(format!("postpro-{}.body", std::process::id()))
+        } else {
+            crate::emit::beside(output, "body")
+        };
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&path)
+            .map_err(|e| Failure::Emit(EmitError::Io { message: e.to_string() }))?;
+        Ok(ScratchFile { path, file })
+    }
+}
+
+impl std::ops::Drop for ScratchFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// The first pass (see the module's documentation).
+fn survey(
+    source: &Source,
+    read_options: &postpro_cl::ReadOptions,
+    kin: &dyn Kinematics,
+    policy: &postpro_kin::Policy,
+    table: Option<&postpro_machine::tools::ToolTable>,
+) -> Surveyed {
+    let mut sink = SurveySink {
+        graph: BranchGraph::new(kin, policy, None),
+        tolerance: policy.linearization_tolerance,
+        targets: Vec::new(),
+        tooling: ToolingReader::new(table),
+        axis: None,
+        turns_tool: false,
+        moves: false,
+        inserts: (0, None),
+        error: None,
+    };
+    let (info, diagnostics) = postpro_cl::read_into_with(source, read_options, &mut sink);
+    let SurveySink { graph, tooling, turns_tool, moves, inserts, error, .. } = sink;
+    let (tooling, tool_warnings) = tooling.finish();
+    Surveyed {
+        info,
+        diagnostics,
+        choice: graph.finish(),
+        graph_error: error,
+        tooling,
+        tool_warnings,
+        turns_tool,
+        moves,
+        inserts,
+    }
+}
+
+/// What a pass of the stages from the items to motion blocks reads (see [`Motions`]).
+#[derive(Clone, Copy)]
+struct Pass<'a> {
+    source: &'a Source,
+    read_options: &'a postpro_cl::ReadOptions,
+    kin: &'a dyn Kinematics,
+    policy: &'a postpro_kin::Policy,
+    job: &'a postpro_motion::Job,
+    unknown: &'a BTreeSet<String>,
+}
+
+impl Pass<'_> {
+    /// Reads the CL file through the stages, the blocks to `sink`, with `options` and the 3+2
+    /// set-ups `set_ups`; with `surveying`, the steps are surveyed.
+    fn run(
+        &self,
+        options: &postpro_motion::Options,
+        set_ups: SetUps,
+        choice: &postpro_kin::Choice,
+        surveying: bool,
+        sink: &mut dyn MotionSink,
+    ) -> Result<(postpro_motion::Summary, Option<Survey>), PassError> {
+        let (kin, policy) = (self.kin, self.policy);
+        let mut motions = Motions {
+            tolerance: policy.linearization_tolerance,
+            placer: Placer::new(kin, policy, None, choice.clone()),
+            linearizer: Linearizer::new(policy),
+            stretches: Stretches::starting(kin, self.job.stretch_starts()),
+            targets: Vec::new(),
+            steps: Collected::default(),
+            stage: Stage::new(kin, options, self.job, self.unknown.clone(), set_ups, sink),
+            surveyor: surveying.then(|| Surveyor::new(kin)),
+            index: 0,
+            error: None,
+        };
+        postpro_cl::read_into_with(self.source, self.read_options, &mut motions);
+        motions.finish()
+    }
+}
