@@ -400,13 +400,19 @@ fn helix_length() -> f64 {
     (20.0 * 4.5 * std::f64::consts::PI).hypot(6.0)
 }
 
-/// `EDGES` written to the test's target folder.
+/// `EDGES` written to the test's target folder, once per test binary: two tests read it, and
+/// one writing it while the other reads it would give the reader a truncated file.
 fn edges_file() -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcs-edges");
-    std::fs::create_dir_all(&dir).expect("a folder");
-    let path = dir.join("edges.cls");
-    std::fs::write(&path, EDGES).expect("the CL file");
-    path
+    static WRITTEN: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    WRITTEN
+        .get_or_init(|| {
+            let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arcs-edges");
+            std::fs::create_dir_all(&dir).expect("a folder");
+            let path = dir.join("edges.cls");
+            std::fs::write(&path, EDGES).expect("the CL file");
+            path
+        })
+        .clone()
 }
 
 /// The arcs of a program, in order.
