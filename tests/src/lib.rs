@@ -18,8 +18,9 @@
 //!
 //! - [`nc`]: an NC program as the machine runs it (motions with exact geometry, events);
 //! - [`rs274`]: LinuxCNC's `rs274` run on a program, its canonical calls read into an [`nc::Program`];
-//! - [`golden`]: readers of the Fanuc/Haas and Heidenhain programs other posts wrote, and the
-//!   pairs of CL file and program in `../shared/data/peers`;
+//! - [`golden`]: readers of the Fanuc/Haas and Heidenhain programs other posts wrote (and ours,
+//!   TCP and working planes included; Siemens from nc-gcode-interpreter's table), and the pairs
+//!   of CL file and program in `../shared/data/peers`;
 //! - [`compare`]: comparators (motions in order, arcs, feed path length, points off a path).
 //!
 //! Run with `cargo test -p tests`; after an intended change of the reader's output, review the

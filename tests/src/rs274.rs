@@ -419,6 +419,7 @@ impl<'a> Canon<'a> {
             from_known: true,
             to: [to[0], to[1], to[2]],
             rotary: Rotary { a: Some(to[3]), b: Some(to[4]), c: Some(to[5]) },
+            vector: None,
             feed: if rapid { None } else { Some(self.feed) },
             line,
         };

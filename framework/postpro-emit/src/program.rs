@@ -896,45 +896,50 @@ impl<'a> Formatter<'a> {
     /// The tool tip in the part frame (TCP mode, a dynamic work offset), with the tool's
     /// orientation as `orientation` says (none: the arcs, which keep it, and the dynamic work
     /// offset, where the rotaries stand): the words whose text changed, or all of them with
-    /// `all`. The orientation is written whole whenever any of it changes.
+    /// `all`. The orientation is written whole whenever any of it changes. Heidenhain's `LN`
+    /// blocks (the tool vector) carry every coordinate and both vectors whenever anything
+    /// changes: the TNC wants them all in each one.
     fn tip_words(&mut self, to: &Position, orientation: Option<TcpOrientation>, all: bool) -> Vec<Word> {
         let p = to.pose.tip / self.unit;
         let tip_decimals = if self.options.units == ProgramUnits::Inch { 5 } else { 4 };
+        let tip = [("X", p.x), ("Y", p.y), ("Z", p.z)].map(|(letter, value)| self.word(letter, value, tip_decimals));
+        let a = to.pose.axis;
+        let vector = (orientation == Some(TcpOrientation::Vectors)).then(|| {
+            let letters = self.dialect.tcp.vector_words().unwrap_or(["I", "J", "K"]);
+            [0, 1, 2].map(|c| self.word(letters[c], [a.x, a.y, a.z][c], 7))
+        });
+        let changed = |f: &Self, slot: usize, w: &Word| f.written[slot].as_deref() != Some(w.text.as_str());
+        let vector_changed = vector.as_ref().is_some_and(|v| (0..3).any(|c| changed(self, 3 + c, &v[c])));
+        let whole = self.dialect.tcp == TcpStyle::M128 && vector.is_some();
+        let all = all || (whole && (vector_changed || (0..3).any(|slot| changed(self, slot, &tip[slot]))));
         let mut words = Vec::with_capacity(9);
-        for (slot, (letter, value)) in [("X", p.x), ("Y", p.y), ("Z", p.z)].into_iter().enumerate() {
-            let word = self.word(letter, value, tip_decimals);
-            if all || self.written[slot].as_deref() != Some(word.text.as_str()) {
+        for (slot, word) in tip.into_iter().enumerate() {
+            if all || changed(self, slot, &word) {
                 self.written[slot] = Some(word.text.clone());
                 words.push(word);
             }
         }
-        match orientation {
-            None => {}
-            Some(TcpOrientation::Angles) => {
+        match (orientation, vector) {
+            (Some(TcpOrientation::Angles), _) => {
                 let rotaries = AxisSet::of(self.machine.axes.len(), |i| self.machine.axes[i].kind == AxisKind::Rotary);
                 words.extend(self.axis_words(&to.axes, rotaries, all));
             }
-            Some(TcpOrientation::Vectors) => {
-                let letters = self.dialect.tcp.vector_words().unwrap_or(["I", "J", "K"]);
-                let a = to.pose.axis;
-                let vector: Vec<Word> = letters.iter().zip([a.x, a.y, a.z]).map(|(l, v)| self.word(l, v, 7)).collect();
-                let changed = all || (0..3).any(|c| self.written[3 + c].as_deref() != Some(vector[c].text.as_str()));
-                if changed {
-                    if self.dialect.tcp == TcpStyle::M128 {
-                        // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D
-                        // compensation).
-                        for (n, v) in [("NX", a.x), ("NY", a.y), ("NZ", a.z)] {
-                            let mut t = String::with_capacity(12);
-                            push_number(&mut t, v, 7, true);
-                            words.push(Word { letter: n.to_string(), value: v, text: t });
-                        }
-                    }
-                    for (c, w) in vector.into_iter().enumerate() {
-                        self.written[3 + c] = Some(w.text.clone());
-                        words.push(w);
+            (Some(TcpOrientation::Vectors), Some(vector)) if all || vector_changed => {
+                if self.dialect.tcp == TcpStyle::M128 {
+                    // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D
+                    // compensation).
+                    for (n, v) in [("NX", a.x), ("NY", a.y), ("NZ", a.z)] {
+                        let mut t = String::with_capacity(12);
+                        push_number(&mut t, v, 7, true);
+                        words.push(Word { letter: n.to_string(), value: v, text: t });
                     }
                 }
+                for (c, w) in vector.into_iter().enumerate() {
+                    self.written[3 + c] = Some(w.text.clone());
+                    words.push(w);
+                }
             }
+            _ => {}
         }
         words
     }

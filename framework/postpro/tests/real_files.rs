@@ -15,8 +15,8 @@ use std::path::Path;
 
 use postpro_cl::{LengthUnit, ReadOptions};
 use programs::{
-    ClPoint, cl_points, data_dir, header_tools, machine, on_two_threads, our_float_noise, out_dir, post, postpro,
-    program_units, reached_in_order, rs274_tools, stderr, tips,
+    cl_points, data_dir, header_tools, machine, on_two_threads, our_float_noise, out_dir, post, postpro, program_units,
+    reached_in_order, rs274_tools, stderr, tips, tolerances,
 };
 use tests::rs274::Rs274;
 
@@ -199,26 +199,6 @@ fn read_options(args: &[&str]) -> ReadOptions {
         _ => LengthUnit::Mm,
     });
     ReadOptions { cl_units, ..ReadOptions::default() }
-}
-
-/// The tolerances within which the tip reaches a CL point: in position (mm), half a unit of
-/// the last decimal written on each linear axis and the rotary axes' half units turning the
-/// point about them (lever: its distance from the part zero, the part zero's from the machine
-/// origin, and 300 mm for pivots and tool lengths); in the tool axis (degrees), the machine's
-/// singular cone (where the free axis is carried the axis may deviate by up to it) and the
-/// rotary rounding.
-fn tolerances(machine: &postpro_machine::model::Machine, inch: bool) -> (impl Fn(&ClPoint) -> f64, f64) {
-    let linear = if inch { 0.5e-4 * 25.4 } else { 0.5e-3 };
-    let rotary_deg: f64 = machine
-        .axes
-        .iter()
-        .filter(|a| a.kind == postpro_machine::model::AxisKind::Rotary)
-        .map(|a| 0.5 * 10f64.powi(-(a.decimals as i32)))
-        .sum();
-    let reference = machine.chain.part_origin.translation.vector.norm() + 300.0;
-    let tip =
-        move |p: &ClPoint| 3f64.sqrt() * linear + (p.tip.coords.norm() + reference) * rotary_deg.to_radians() + 1e-6;
-    (tip, machine.policy.singular_cone.to_degrees() + rotary_deg + 1e-6)
 }
 
 /// No number of a program written for a real file (header, comments, tool data, blocks) nor of

@@ -5,7 +5,7 @@ use crate::nc::{Arc, MotionKind, Plane};
 
 fn motion(kind: MotionKind, from: [f64; 3], to: [f64; 3], line: usize) -> Motion {
     let feed = if matches!(kind, MotionKind::Rapid) { None } else { Some(100.0) };
-    Motion { kind, from, from_known: true, to, rotary: Rotary::default(), feed, line }
+    Motion { kind, from, from_known: true, to, rotary: Rotary::default(), vector: None, feed, line }
 }
 
 /// A path through `points` (feeds), numbered from `first_line`.

@@ -1,7 +1,10 @@
 //! Fanuc/Haas G-code, as Siemens NX's own Haas UMC-750 post writes it: block numbers, modal
 //! G0/G1/G2/G3 with incremental I J K centres (or R), G17/G18/G19, G20/G21, G90/G91, B and C
-//! words, G43 H length offsets, G234 (Haas) and G43.4/G43.5 (Fanuc) tool centre point control,
-//! G53 and G28 moves in the machine frame, G81–G89 and G73 cycles with G98/G99.
+//! words, G43 H length offsets, G234 (Haas) and G43.4/G43.5 (Fanuc) tool centre point control
+//! (the tool vector of G43.5 in I J K), G53 and G28 moves in the machine frame, G81–G89 and G73
+//! cycles with G98/G99; and as postpro writes 3+2 set-ups: Fanuc's tilted working plane (G68.2
+//! X Y Z I J K, G53.1, G69) and Haas's dynamic work offset (G254, G255), after which the
+//! position is not known until programmed again (the machine's kinematics relate the frames).
 //!
 //! The program is what lies between the first two `%` lines (NX's Information-window header and
 //! footer are outside them); without a `%` line, the whole text. A line starting with `O` is the
@@ -9,7 +12,7 @@
 //! read (block delete off). Numbers without a decimal point are whole units, as Haas reads them.
 
 use crate::Error;
-use crate::nc::{Arc, EventKind, MotionKind, Plane, Program, Units};
+use crate::nc::{Arc, EventKind, Frame, MotionKind, Plane, Program, Units};
 
 use super::{Between, Builder, Drill, peck_depths};
 
@@ -123,6 +126,8 @@ struct Reader {
     feed: Option<f64>,
     tool: Option<u32>,
     tcp: bool,
+    /// G43.5: the tool vector in I J K on straight moves.
+    tcp_vectors: bool,
     ended: bool,
 }
 
@@ -141,6 +146,7 @@ impl Reader {
             feed: None,
             tool: None,
             tcp: false,
+            tcp_vectors: false,
             ended: false,
         }
     }
@@ -192,6 +198,7 @@ impl Reader {
         }
         let mut machine_frame: Option<&str> = None;
         let mut dwell = false;
+        let mut tilted_plane = false;
         for g in &g_codes {
             let c = code(g.value);
             match c {
@@ -246,6 +253,7 @@ impl Reader {
                         self.b.event(line, EventKind::LengthOffset { register, offset: None });
                     }
                     self.tcp = true;
+                    self.tcp_vectors = c == 435;
                     self.b.event(line, EventKind::Tcp { on: true });
                 }
                 490 => {
@@ -253,9 +261,21 @@ impl Reader {
                     if std::mem::take(&mut self.tcp) {
                         self.b.event(line, EventKind::Tcp { on: false });
                     }
+                    self.tcp_vectors = false;
+                    self.b.vector = None;
                 }
+                // Haas's dynamic work offset: the program's coordinates are the part's, the
+                // control turning them with the rotary axes.
                 2540 | 2550 => {
                     self.b.event(line, EventKind::WorkOffset { name: format!("G{}", c / 10), offset: None });
+                    self.b.position = [None; 3];
+                }
+                // Fanuc's tilted working plane: its X Y Z I J K are read below.
+                682 => tilted_plane = true,
+                531 => self.b.event(line, EventKind::ToolAxisToPlane { code: "G53.1".into() }),
+                690 => {
+                    self.b.event(line, EventKind::WorkingPlane { code: "G69".into(), frame: None });
+                    self.b.position = [None; 3];
                 }
                 530 => machine_frame = Some("G53"),
                 280 => machine_frame = Some("G28"),
@@ -293,6 +313,19 @@ impl Reader {
                 _ => {}
             }
         }
+        if tilted_plane {
+            // G68.2 X Y Z (the plane's zero) I J K (Euler angles about Z, X', Z'', degrees).
+            let scale = self.scale(line, column)?;
+            let origin = ['X', 'Y', 'Z'].map(|l| get(l).map_or(0.0, |w| w.value * scale));
+            let angles = ['I', 'J', 'K'].map(|l| get(l).map_or(0.0, |w| w.value));
+            if let Some(w) = letters.iter().find(|w| !"XYZIJK".contains(w.letter)) {
+                return Err(self.b.error(line, w.column, format!("`{}` in a G68.2 block is not read", w.letter)));
+            }
+            let frame = Some(Frame::euler_zxz(origin, angles));
+            self.b.event(line, EventKind::WorkingPlane { code: "G68.2".into(), frame });
+            self.b.position = [None; 3];
+            return Ok(());
+        }
         if dwell {
             let seconds = get('P').or(get('X')).map_or(0.0, |p| p.value);
             self.b.event(line, EventKind::Dwell { seconds });
@@ -309,7 +342,19 @@ impl Reader {
         if let Some(cycle) = self.cycle {
             return self.cycle_block(line, column, cycle, &letters);
         }
-        if given.is_empty() {
+        // A straight move's I J K in G43.5: the tool vector (components left out are 0; none at
+        // all keeps it).
+        let mut oriented = false;
+        if matches!(self.mode, Some(Mode::Rapid | Mode::Feed))
+            && let Some(w) = ['I', 'J', 'K'].iter().find_map(|&l| get(l))
+        {
+            if !self.tcp_vectors {
+                return Err(self.b.error(line, w.column, "I J K on a straight move outside G43.5"));
+            }
+            self.b.vector = Some(['I', 'J', 'K'].map(|l| get(l).map_or(0.0, |w| w.value)));
+            oriented = true;
+        }
+        if given.is_empty() && !oriented {
             return Ok(());
         }
         let scale = self.scale(line, column)?;

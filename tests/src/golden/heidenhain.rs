@@ -4,7 +4,11 @@
 //! and helices (`PA`/`IPA`, `PR`/`IPR`, `Z`/`IZ`), `CYCL DEF 7` datum shifts, drilling cycles
 //! (`CYCL DEF 1` pecking, 200 drilling, 203 universal drilling) called by `CYCL CALL` or `M99`,
 //! `CYCL DEF 9` dwells, `CYCL DEF 247` presets, `TOOL DEF`/`TOOL CALL` (`TOOL CALL S…` a speed), `M91`/`M92` machine-frame moves, `M128`/`M129`
-//! and `FUNCTION TCPM`.
+//! and `FUNCTION TCPM`; and as postpro writes TCP and 3+2 programs: `LN` blocks (X Y Z, the
+//! normal NX NY NZ and the tool vector TX TY TZ, every one in every block as the TNC wants),
+//! `PLANE VECTOR BX BY BZ NX NY NZ STAY|MOVE|TURN` and `PLANE RESET` (the coordinates that follow
+//! are the plane's, its zero the datum; the position is not known in the new frame until
+//! programmed again).
 //!
 //! As the TNC: `FMAX` holds for its block only, `F` is modal; a `CC` without coordinates is the
 //! current position; positions after a datum shift are converted back into the frame the
@@ -16,7 +20,7 @@
 //! `nan` is an error (clsplit writes it for a set-up whose axis is −Z).
 
 use crate::Error;
-use crate::nc::{Arc, EventKind, MotionKind, Plane, Program, Units};
+use crate::nc::{Arc, EventKind, Frame, MotionKind, Plane, Program, Units};
 
 use super::{Between, Builder, Drill, peck_depths};
 
@@ -71,6 +75,9 @@ struct Reader {
     shift: [Option<f64>; 3],
     /// The index of the last datum-shift event, updated by its 7.1–7.3 lines.
     shift_event: Option<usize>,
+    /// A tilted working plane (`PLANE VECTOR`) in force: coordinates are the plane's, not
+    /// shifted.
+    tilted: bool,
     center: Option<[Option<f64>; 2]>,
     feed: Option<f64>,
     /// `FAUTO`: the feed of the `TOOL CALL`.
@@ -92,6 +99,7 @@ impl Reader {
             b: Builder::new(name),
             shift: [Some(0.0); 3],
             shift_event: None,
+            tilted: false,
             center: None,
             feed: None,
             tool_feed: None,
@@ -148,7 +156,8 @@ impl Reader {
                 self.ended = true;
             }
             "BLK" => {}
-            "L" | "C" | "CC" | "CP" | "M" => self.path_block(n, column0, code)?,
+            "L" | "LN" | "C" | "CC" | "CP" | "M" => self.path_block(n, column0, code)?,
+            "PLANE" => self.plane(n, column0, code)?,
             _ if first.starts_with('M') && first[1..].chars().all(|c| c.is_ascii_digit()) => {
                 self.path_block(n, column0, &format!("M {code}"))?;
             }
@@ -200,9 +209,11 @@ impl Reader {
         let mut rapid = false;
         let mut machine_frame = None;
         let mut call_cycle = false;
+        let normal = kind == "LN";
         for t in &tokens {
             match t.word.as_str() {
                 "X" | "Y" | "Z" | "IX" | "IY" | "IZ" | "A" | "B" | "C" | "DR" | "PA" | "IPA" | "PR" | "IPR" => {}
+                "NX" | "NY" | "NZ" | "TX" | "TY" | "TZ" if normal => {}
                 "FMAX" => rapid = true,
                 "FAUTO" => {
                     let feed = self
@@ -233,7 +244,10 @@ impl Reader {
                             self.ended = true;
                         }
                         128 => self.b.event(n, EventKind::Tcp { on: true }),
-                        129 => self.b.event(n, EventKind::Tcp { on: false }),
+                        129 => {
+                            self.b.event(n, EventKind::Tcp { on: false });
+                            self.b.vector = None;
+                        }
                         // Spindle, coolant and the rest: no motion.
                         _ => {}
                     },
@@ -255,6 +269,9 @@ impl Reader {
             let message = format!("a motion between a conditional jump (line {}) and its LBL {label}", self.jump_line);
             return Err(error(&self.b, None, message));
         }
+        if normal {
+            self.normal_vectors(&tokens).map_err(|(t, m)| error(&self.b, t, m))?;
+        }
         match kind.as_str() {
             "CC" => {
                 if axes.iter().any(|t| t.word.ends_with('Z')) || axes.len() == 1 {
@@ -265,7 +282,7 @@ impl Reader {
                 self.center = Some([target[0], target[1]]);
                 return Ok(());
             }
-            "L" | "M" => {
+            "L" | "LN" | "M" => {
                 if let Some(code) = machine_frame {
                     self.b.machine_move(n, &code, &moved);
                 } else if parameters {
@@ -299,6 +316,96 @@ impl Reader {
         Ok(())
     }
 
+    /// What an absolute coordinate along axis `k` adds to be in the program's start frame: the
+    /// datum shift, or nothing in a tilted working plane (whose zero is the datum).
+    fn datum(&self, k: usize) -> Option<f64> {
+        if self.tilted { Some(0.0) } else { self.shift[k] }
+    }
+
+    /// An `LN` block's vectors: X Y Z and the normal NX NY NZ are all there (the TNC wants every
+    /// coordinate and normal component in each LN block, changed or not), the tool vector TX TY TZ
+    /// all or none (it becomes the tool vector in force), no rotary axis.
+    fn normal_vectors<'t>(&mut self, tokens: &'t [Token]) -> Result<(), Located<'t>> {
+        let get = |word: &str| tokens.iter().find(|t| t.word == word);
+        if let Some(t) = tokens.iter().find(|t| matches!(t.word.as_str(), "A" | "B" | "C" | "IX" | "IY" | "IZ")) {
+            return Err((Some(t), format!("`{}` in an LN block: its tool orientation is TX TY TZ", t.word)));
+        }
+        let missing: Vec<&str> = ["X", "Y", "Z", "NX", "NY", "NZ"].into_iter().filter(|w| get(w).is_none()).collect();
+        if !missing.is_empty() {
+            let message = format!(
+                "an LN block without {}: the TNC wants every coordinate and normal component in each LN block",
+                missing.join(" ")
+            );
+            return Err((None, message));
+        }
+        let tool: Vec<&Token> = ["TX", "TY", "TZ"].into_iter().filter_map(get).collect();
+        match tool.len() {
+            0 => Ok(()),
+            3 => {
+                let mut v = [0.0; 3];
+                for (k, t) in tool.iter().enumerate() {
+                    v[k] = number(t).map_err(|m| (Some(*t), m))?;
+                }
+                self.b.vector = Some(v);
+                Ok(())
+            }
+            _ => Err((Some(tool[0]), "TX TY TZ: all three or none".into())),
+        }
+    }
+
+    /// `PLANE VECTOR BX.. BY.. BZ.. NX.. NY.. NZ.. STAY|MOVE|TURN …` and `PLANE RESET
+    /// STAY|MOVE|TURN …`: a working plane about the datum, or none. `MOVE` and `TURN` turn the
+    /// rotary axes (to values the machine chooses: unknown here), `STAY` leaves them.
+    fn plane(&mut self, n: usize, column0: usize, code: &str) -> Result<(), Error> {
+        let error = |b: &Builder, column: usize, m: String| b.error(n, column, m);
+        let upper = code.to_ascii_uppercase();
+        let words: Vec<&str> = upper.split_whitespace().collect();
+        let kind = words.get(1).copied().unwrap_or("");
+        if !matches!(kind, "VECTOR" | "RESET") {
+            let message = format!("PLANE {kind} is not read (PLANE VECTOR and PLANE RESET are)");
+            return Err(error(&self.b, column0 + 1, message));
+        }
+        let after = upper.find(kind).map_or(code.len(), |at| at + kind.len());
+        let tokens = tokens(&code[after..], column0 + after).map_err(|(c, m)| self.b.error(n, c, m))?;
+        let positioning = tokens.iter().position(|t| matches!(t.word.as_str(), "STAY" | "MOVE" | "TURN"));
+        let Some(p) = positioning else {
+            return Err(error(&self.b, column0 + 1, "a PLANE without STAY, MOVE or TURN".into()));
+        };
+        let frame = if kind == "RESET" {
+            if let Some(t) = tokens[..p].first() {
+                return Err(error(&self.b, t.column, format!("`{}` in PLANE RESET", t.word)));
+            }
+            None
+        } else {
+            let mut values = [None; 6];
+            for t in &tokens[..p] {
+                let k = ["BX", "BY", "BZ", "NX", "NY", "NZ"].iter().position(|w| *w == t.word);
+                let Some(k) = k.filter(|&k| values[k].is_none()) else {
+                    return Err(error(&self.b, t.column, format!("`{}` in PLANE VECTOR", t.word)));
+                };
+                values[k] = Some(number(t).map_err(|m| error(&self.b, t.column, m))?);
+            }
+            let Some(v) = values.iter().copied().collect::<Option<Vec<f64>>>() else {
+                return Err(error(&self.b, column0 + 1, "PLANE VECTOR without all of BX BY BZ NX NY NZ".into()));
+            };
+            let (Some(x), Some(y), Some(z)) = (self.shift[0], self.shift[1], self.shift[2]) else {
+                return Err(error(&self.b, column0 + 1, "a working plane about a datum not known".into()));
+            };
+            let frame = Frame::from_vectors([x, y, z], [v[0], v[1], v[2]], [v[3], v[4], v[5]])
+                .map_err(|m| error(&self.b, column0 + 1, m))?;
+            Some(frame)
+        };
+        self.tilted = frame.is_some();
+        let name = format!("PLANE {kind}");
+        self.b.event(n, EventKind::WorkingPlane { code: name.clone(), frame });
+        if tokens[p].word != "STAY" {
+            self.b.rotary = Default::default();
+            self.b.event(n, EventKind::ToolAxisToPlane { code: name });
+        }
+        self.b.position = [None; 3];
+        Ok(())
+    }
+
     /// A block the reader cannot place (Q parameters): kept, its axes unknown.
     fn unresolved(&mut self, n: usize, axes: &[usize], code: &str) {
         for &k in axes {
@@ -313,7 +420,7 @@ impl Reader {
         for t in axes {
             let k = axis(&t.word);
             let Some(Value::Number(v)) = t.value else { continue };
-            target[k] = if t.word.starts_with('I') { target[k].map(|p| p + v) } else { self.shift[k].map(|s| v + s) };
+            target[k] = if t.word.starts_with('I') { target[k].map(|p| p + v) } else { self.datum(k).map(|s| v + s) };
         }
         target
     }
@@ -395,7 +502,7 @@ impl Reader {
         let z = match (coordinate("Z"), coordinate("IZ")) {
             (Some(t), _) => {
                 let z = value(t)?;
-                self.shift[2].map(|s| s + z)
+                self.datum(2).map(|s| s + z)
             }
             (None, Some(t)) => Some(sz + value(t)?),
             (None, None) => Some(sz),
@@ -463,6 +570,9 @@ impl Reader {
                 let rest = &code[after..];
                 let last = words.last().copied().unwrap_or("");
                 match (cycle, part) {
+                    ("7", _) if self.tilted => {
+                        return Err(error(&self.b, "a datum shift in a tilted working plane is not read".into()));
+                    }
                     ("7", "0") => {
                         self.shift = [Some(0.0); 3];
                         self.shift_event = Some(self.b.events.len());
@@ -562,7 +672,7 @@ impl Reader {
                 let need = |k: u32| get(k).ok_or_else(|| error(&self.b, format!("CYCL DEF {number} lacks Q{k}")));
                 let (clearance, depth, feed, plunge) = (need(200)?, need(201)?, need(206)?, need(202)?);
                 let surface = need(203)?
-                    + self.shift[2].ok_or_else(|| error(&self.b, "the datum shift in Z is not known".into()))?;
+                    + self.datum(2).ok_or_else(|| error(&self.b, "the datum shift in Z is not known".into()))?;
                 let second = get(204).unwrap_or(0.0);
                 if depth >= 0.0 {
                     return Err(error(&self.b, format!("Q201 = {depth}: a hole depth that is not negative")));

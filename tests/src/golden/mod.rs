@@ -6,6 +6,8 @@
 //!   (`userFour__MECH491-postprocessor/*/expected/`).
 //! - [`heidenhain`]: Heidenhain conversational (Klartext), as clsplit writes it
 //!   (`aamorim1913__AptPostProcessor/*/*/expected/*.h`).
+//! - [`siemens`]: Siemens 840D as postpro writes it, the positions from nc-gcode-interpreter's
+//!   table (no peer writes Siemens programs).
 //!
 //! Both follow the machine: positions in the work frame, modal values carried, canned cycles
 //! expanded into their moves (with a [`EventKind::Hole`] each), machine-frame moves kept as
@@ -15,6 +17,7 @@
 
 pub mod fanuc;
 pub mod heidenhain;
+pub mod siemens;
 
 use std::path::PathBuf;
 
@@ -85,6 +88,8 @@ struct Builder {
     units: Option<Units>,
     position: [Option<f64>; 3],
     rotary: Rotary,
+    /// The tool vector in force (TCP with vectors), as written.
+    vector: Option<[f64; 3]>,
     motions: Vec<Motion>,
     events: Vec<Event>,
 }
@@ -96,6 +101,7 @@ impl Builder {
             units: None,
             position: [None; 3],
             rotary: Rotary::default(),
+            vector: None,
             motions: Vec::new(),
             events: Vec::new(),
         }
@@ -149,7 +155,9 @@ impl Builder {
         let to = [x, y, z];
         let from = [0, 1, 2].map(|k| self.position[k].unwrap_or(to[k]));
         let feed = if rapid { None } else { Some(feed.ok_or("a feed move without a feed rate (no F yet)")?) };
-        self.motions.push(Motion { kind, from, from_known: start_known, to, rotary: self.rotary, feed, line });
+        let motion =
+            Motion { kind, from, from_known: start_known, to, rotary: self.rotary, vector: self.vector, feed, line };
+        self.motions.push(motion);
         self.position = target;
         Ok(())
     }

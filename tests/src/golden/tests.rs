@@ -1,6 +1,6 @@
 use super::*;
 use crate::compare::{arcs_match, feed_path_length, motions_in_order};
-use crate::nc::Plane;
+use crate::nc::{Frame, Plane};
 use crate::rs274::Rs274;
 
 fn kinds(p: &Program) -> Vec<&'static str> {
@@ -359,8 +359,8 @@ END PGM 0TREF MM
         ("BEGIN PGM A MM\nL X+0 Y+0 Z+0 FMAX\nC X+5 Y+0 DR+ F100\n", "a:3:1: an arc before any CC"),
         ("BEGIN PGM A MM\nL X+0 Y+0 Z+0 FMAX\nCC X+5\n", "a:3:4: a circle centre other than in X and Y is not read"),
         (
-            "BEGIN PGM A MM\nPLANE SPATIAL SPA+0 SPB+45 SPC+0\n",
-            "a:2:1: `PLANE`: expected a block this reader knows (L, C, CC, CP, CYCL DEF, CYCL CALL, TOOL CALL …)",
+            "BEGIN PGM A MM\nPLANE SPATIAL SPA+0 SPB+45 SPC+0 STAY\n",
+            "a:2:1: PLANE SPATIAL is not read (PLANE VECTOR and PLANE RESET are)",
         ),
         ("BEGIN PGM A MM\nCYCL DEF 262 THREAD MILLING\n", "a:2:1: cycle 262 is not read"),
         ("L X+0 Y+0 Z+0 FMAX\nEND PGM A MM\n", "a:1:1: no units: expected G20/G21 or BEGIN PGM … MM|INCH"),
@@ -422,4 +422,147 @@ fn fanuc_reads_tool_centre_point_control() {
     let ends: Vec<[f64; 3]> = p.motions.iter().map(|m| m.to).collect();
     assert_eq!(ends, [[1.0, 2.0, 30.0], [1.0, 2.0, -1.0], [1.0, 2.0, 50.0]]);
     assert_eq!(p.motions[1].kind, MotionKind::Feed);
+}
+
+/// Fanuc's tilted working plane as postpro writes it: `G68.2` defines the plane (its X Y Z and
+/// Euler angles, not a move), `G53.1` turns the tool to it, the position is not known in the
+/// plane until programmed (`G0 Z…` alone is a positioning); `G69` resets it. Haas's `G254` and
+/// `G255` leave the position unknown too. `G43.5`'s I J K are the tool vector of straight moves
+/// (modal, components left out 0), an error outside it.
+#[test]
+fn fanuc_reads_tilted_planes_dynamic_offsets_and_tool_vectors() {
+    let text = "G21 G90 G94 G17\nG54\nG0 B90 C0\nG0 X10 Y20\nG68.2 X1 Y2 Z3 I90 J90 K-90\nG53.1\nG0 Z50\n\
+                G0 X10 Y20 Z5\nG1 Z-1 F100\nG17 G2 X12 Y20 Z-1 I1 J0\nG0 Z50\nG69\nG254\nG0 X1 Y2 Z3\nG255\n\
+                G43.5 H1\nG0 X0 Y0 Z10 I0 J0 K1\nG1 Z9 I0.6 K0.8\nG1 Z8\nG49\nM30\n";
+    let p = fanuc::read("t", text).unwrap_or_else(|e| panic!("{e}"));
+    let planes: Vec<(&str, Option<Frame>)> = p
+        .events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::WorkingPlane { code, frame } => Some((code.as_str(), *frame)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(planes, [("G68.2", Some(Frame::euler_zxz([1.0, 2.0, 3.0], [90.0, 90.0, -90.0]))), ("G69", None)]);
+    assert!(p.events.iter().any(|e| e.kind == EventKind::ToolAxisToPlane { code: "G53.1".into() } && e.line == 6));
+    assert!(p.events.iter().any(|e| e.kind == EventKind::Positioning { rapid: true, to: [None, None, Some(50.0)] }));
+    assert_eq!(kinds(&p), ["rapid", "feed", "arc", "rapid", "rapid", "rapid", "feed", "feed"]);
+    // In the plane, from where the machine's kinematics left it; the B of the set-up kept.
+    assert!(!p.motions[0].from_known && p.motions[0].to == [10.0, 20.0, 5.0] && p.motions[0].rotary.b == Some(90.0));
+    // After G254, the part's coordinates: again from a position not known.
+    assert!(!p.motions[4].from_known && p.motions[4].to == [1.0, 2.0, 3.0]);
+    let vectors: Vec<Option<[f64; 3]>> = p.motions[5..].iter().map(|m| m.vector).collect();
+    assert_eq!(vectors, [Some([0.0, 0.0, 1.0]), Some([0.6, 0.0, 0.8]), Some([0.6, 0.0, 0.8])]);
+    assert!(p.motions[..5].iter().all(|m| m.vector.is_none()));
+    let cases = [
+        ("G21 G0 X0 Y0 Z0\nG1 X1 I0.5 F100\n", "t:2:7: I J K on a straight move outside G43.5"),
+        ("G21\nG68.2 X0 Y0 Z0 I0 J10 K0 R5\n", "t:2:26: `R` in a G68.2 block is not read"),
+    ];
+    refused(fanuc::read, "t", &cases);
+}
+
+/// Heidenhain's `LN` blocks (every coordinate and normal component, the tool vector TX TY TZ)
+/// and working planes: `PLANE VECTOR … STAY` about the datum (a datum shift before it is its
+/// zero; the coordinates in the plane are not shifted again), `PLANE RESET`; the TNC's rules are
+/// errors here.
+#[test]
+fn heidenhain_reads_ln_blocks_and_vector_planes() {
+    let text = "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z\n2 CYCL DEF 7.0 DATUM SHIFT\n3 CYCL DEF 7.1 X+10\n\
+                4 L B+90 C+0 FMAX\n5 PLANE VECTOR BX+0 BY+0 BZ-1 NX+1 NY+0 NZ+0 STAY ; plane\n6 L Z+50 FMAX\n\
+                7 L X+1 Y+2 Z+5 FMAX\n8 PLANE RESET STAY\n9 L M128\n\
+                10 LN X+1 Y+2 Z+3 NX+0 NY+0 NZ+1 TX+0 TY+0 TZ+1 FMAX\n11 LN X+1 Y+2 Z+2 NX+0.6 NY+0 NZ+0.8 F100\n\
+                12 L M129\n13 END PGM P MM\n";
+    let p = heidenhain::read("p.h", text).unwrap_or_else(|e| panic!("{e}"));
+    let planes: Vec<Option<Frame>> = p
+        .events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::WorkingPlane { frame, .. } => Some(*frame),
+            _ => None,
+        })
+        .collect();
+    let plane = Frame::from_vectors([10.0, 0.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]).expect("a frame");
+    assert_eq!(planes, [Some(plane), None]);
+    assert!(p.events.iter().any(|e| e.kind == EventKind::Positioning { rapid: true, to: [None, None, Some(50.0)] }));
+    // In the plane: its own coordinates; after the reset, the datum shift's again.
+    assert_eq!(p.motions[0].to, [1.0, 2.0, 5.0]);
+    assert_eq!((p.motions[1].to, p.motions[2].to), ([11.0, 2.0, 3.0], [11.0, 2.0, 2.0]));
+    // The tool vector: TX TY TZ, kept while the normal alone changes.
+    assert_eq!((p.motions[1].vector, p.motions[2].vector), (Some([0.0, 0.0, 1.0]), Some([0.0, 0.0, 1.0])));
+    let cases = [
+        (
+            "BEGIN PGM A MM\nL X+0 Y+0 Z+0 FMAX\nLN X+1 Y+0 Z+0 TX+0 TY+0 TZ+1 F100\n",
+            "a:3:1: an LN block without NX NY NZ: the TNC wants every coordinate and normal component in each LN block",
+        ),
+        ("BEGIN PGM A MM\nLN B+10 FMAX\n", "a:2:4: `B` in an LN block: its tool orientation is TX TY TZ"),
+        ("BEGIN PGM A MM\nLN X+1 Y+0 Z+0 NX+0 NY+0 NZ+1 TX+0 TZ+1 F100\n", "a:2:31: TX TY TZ: all three or none"),
+        ("BEGIN PGM A MM\nPLANE VECTOR BX+1 BY+0 BZ+0 NX+0 NY+0 NZ+1\n", "a:2:1: a PLANE without STAY, MOVE or TURN"),
+        (
+            "BEGIN PGM A MM\nPLANE VECTOR BX+1 BY+0 BZ+0.5 NX+0 NY+0 NZ+1 STAY\n",
+            "a:2:1: the base vector is not perpendicular to the normal vector (cosine 4.47e-1)",
+        ),
+        (
+            "BEGIN PGM A MM\nPLANE VECTOR BX+1 BY+0 BZ+0 NX+0 NY+0 NZ+1 STAY\nCYCL DEF 7.0 DATUM SHIFT\n",
+            "a:3:1: a datum shift in a tilted working plane is not read",
+        ),
+    ];
+    refused(heidenhain::read, "a", &cases);
+}
+
+/// The Siemens reader takes the positions from the interpreter's rows and the rest from the text:
+/// TCP with the tool vector of `ORIVECT`, a `CYCLE800` plane (mode 57) that swivels, a modal
+/// drilling call's hole, an arc with its I J, a `SUPA` retract.
+#[test]
+fn siemens_reads_the_interpreters_rows_and_the_frames_of_the_text() {
+    let text = "G90 G17 G710 G94\nT1 D1 M6\nG0 SUPA Z200 D0\nG0 B90 C0\nG0 X10 Y20\n\
+                CYCLE800(0, \"TC1\", 0, 57, 0, 0, 0, 0, 90, 0, 0, 0, 0, 1, 100, 1) ; plane\nG0 Z50\n\
+                G0 X10 Y20 Z5\nF100\nMCALL CYCLE81(5, 0, 2, -10)\nX12 Y20\nMCALL\nG1 Z0\nG17 G3 X14 Y20 I1 J0\n\
+                CYCLE800()\nTRAORI D1\nORIWKS ORIVECT\nG0 X0 Y0 Z10 A3=0 B3=0 C3=1\nTRAFOOF\nM30\n";
+    let row = |motion: &str, programmed: &str, values: &[(char, f64)]| siemens::Row {
+        motion: (!motion.is_empty()).then(|| motion.to_string()),
+        feed: None,
+        programmed: programmed.to_string(),
+        values: values.iter().copied().collect(),
+    };
+    let mut rows = vec![row("", "", &[]); text.lines().count()];
+    rows[2] = row("G0", "Z", &[('Z', 200.0)]);
+    rows[3] = row("G0", "BC", &[('Z', 200.0), ('B', 90.0), ('C', 0.0)]);
+    rows[4] = row("G0", "XY", &[('X', 10.0), ('Y', 20.0), ('B', 90.0), ('C', 0.0)]);
+    rows[6] = row("G0", "Z", &[('X', 10.0), ('Y', 20.0), ('Z', 50.0), ('B', 90.0), ('C', 0.0)]);
+    rows[7] = row("G0", "XYZ", &[('X', 10.0), ('Y', 20.0), ('Z', 5.0), ('B', 90.0), ('C', 0.0)]);
+    rows[8] = siemens::Row { feed: Some(100.0), ..row("G0", "", &[]) };
+    rows[10] = row("G0", "XY", &[('X', 12.0), ('Y', 20.0), ('Z', 5.0), ('B', 90.0), ('C', 0.0)]);
+    rows[12] = row("G1", "Z", &[('X', 12.0), ('Y', 20.0), ('Z', 0.0), ('B', 90.0), ('C', 0.0)]);
+    rows[13] = row("G3", "XYIJ", &[('X', 14.0), ('Y', 20.0), ('Z', 0.0), ('I', 1.0), ('J', 0.0), ('B', 90.0)]);
+    rows[17] = row("G0", "XYZ", &[('X', 0.0), ('Y', 0.0), ('Z', 10.0), ('B', 90.0), ('C', 0.0)]);
+    let p = siemens::read("s.mpf", text, &rows).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(p.units, Units::Mm);
+    let codes: Vec<&str> = p
+        .events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::WorkingPlane { code, .. } | EventKind::ToolAxisToPlane { code } => Some(code.as_str()),
+            EventKind::MachineFrameMove { code, .. } => Some(code.as_str()),
+            EventKind::Hole { cycle, .. } => Some(cycle.as_str()),
+            EventKind::Tcp { on: true } => Some("TRAORI"),
+            EventKind::Tcp { on: false } => Some("TRAFOOF"),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(codes, ["SUPA", "CYCLE800", "CYCLE800", "CYCLE81", "CYCLE800()", "TRAORI", "TRAFOOF"]);
+    let plane = p.events.iter().find_map(|e| match &e.kind {
+        EventKind::WorkingPlane { frame: Some(f), .. } => Some(*f),
+        _ => None,
+    });
+    assert!(close3(plane.map_or([0.0; 3], |f| f.z()), [1.0, 0.0, 0.0]));
+    let hole = p.events.iter().find_map(|e| match &e.kind {
+        EventKind::Hole { at, bottom, .. } => Some((*at, *bottom)),
+        _ => None,
+    });
+    assert_eq!(hole, Some(([12.0, 20.0, 2.0], -10.0)));
+    assert_eq!(kinds(&p), ["rapid", "feed", "arc", "rapid"]);
+    let arc = p.motions[2].arc().copied().expect("an arc");
+    assert!(close3(arc.center, [13.0, 20.0, 0.0]) && !arc.clockwise, "{arc:?}");
+    assert_eq!(p.motions[3].vector, Some([0.0, 0.0, 1.0]));
+    assert_eq!(p.motions[1].from, [12.0, 20.0, 5.0]);
 }

@@ -137,6 +137,10 @@ pub struct Motion {
     pub to: [f64; 3],
     /// The rotary axes at the end.
     pub rotary: Rotary,
+    /// The tool vector in force at the end, where the program gives the orientation as one
+    /// (Fanuc `G43.5` I J K, Heidenhain `LN` TX TY TZ, Siemens `ORIVECT` A3 B3 C3), as written
+    /// (not normalised); `None` where it does not (the rotary axes orient the tool).
+    pub vector: Option<[f64; 3]>,
     /// The feed, program units per minute (LinuxCNC's inverse-time feeds as the rate it
     /// computes); `None` for rapids.
     pub feed: Option<f64>,
@@ -234,6 +238,10 @@ impl Event {
             EventKind::Hole { cycle, at, bottom } => {
                 EventKind::Hole { cycle: cycle.clone(), at: at.map(scale), bottom: scale(*bottom) }
             }
+            EventKind::WorkingPlane { code, frame } => EventKind::WorkingPlane {
+                code: code.clone(),
+                frame: frame.map(|f| Frame { origin: f.origin.map(scale), axes: f.axes }),
+            },
             other => other.clone(),
         };
         Event { line: self.line, before: self.before, kind }
@@ -321,6 +329,23 @@ pub enum EventKind {
         /// The time.
         seconds: f64,
     },
+    /// A working plane comes into force (`frame`: Fanuc `G68.2`, Siemens `CYCLE800(…)`,
+    /// Heidenhain `PLANE VECTOR`), or is reset (`None`: `G69`, `CYCLE800()`, `PLANE RESET`): the
+    /// coordinates that follow are the plane's. The position is not known in the new frame
+    /// until programmed again (the machine's kinematics relate the two).
+    WorkingPlane {
+        /// The command (`G68.2`, `G69`, `CYCLE800`, `PLANE VECTOR`, `PLANE RESET`).
+        code: String,
+        /// The plane in the frame before it, or `None` for a reset.
+        frame: Option<Frame>,
+    },
+    /// The controller turns the rotary axes so that the tool lies along the working plane's z
+    /// (Fanuc `G53.1`, Siemens `CYCLE800` with a direction, Heidenhain `PLANE … MOVE|TURN`): the
+    /// rotary values it chooses are the machine's; the readers keep those written before.
+    ToolAxisToPlane {
+        /// The command.
+        code: String,
+    },
     /// The feed mode changed (LinuxCNC's `feed mode set to …` comment): true for inverse time.
     InverseTime(bool),
     /// A program stop (M0, `STOP`), or an optional one (M1).
@@ -330,6 +355,95 @@ pub enum EventKind {
     },
     /// The program ended (M2, M30, `END PGM`, `PROGRAM_END`).
     End,
+}
+
+/// A working plane's frame: its origin and its x, y and z axes (unit vectors, right-handed) in
+/// the frame before it. A point `p` of the plane is `origin + p[0]·x + p[1]·y + p[2]·z` there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// The plane's zero in the frame before it.
+    pub origin: [f64; 3],
+    /// The plane's x, y and z axes in the frame before it.
+    pub axes: [[f64; 3]; 3],
+}
+
+impl Frame {
+    /// The frame turned by Euler angles in degrees about Z, then the new X, then the new Z
+    /// (Fanuc `G68.2 X Y Z I J K`): the rotation Rz(I)·Rx(J)·Rz(K).
+    pub fn euler_zxz(origin: [f64; 3], degrees: [f64; 3]) -> Frame {
+        Frame::rotated(origin, &[(2, degrees[0]), (0, degrees[1]), (2, degrees[2])])
+    }
+
+    /// The frame turned axis by axis by angles in degrees about X, then the new Y, then the new Z
+    /// (Siemens `CYCLE800` in mode 57, its `_A _B _C`): the rotation Rx(A)·Ry(B)·Rz(C).
+    pub fn euler_xyz(origin: [f64; 3], degrees: [f64; 3]) -> Frame {
+        Frame::rotated(origin, &[(0, degrees[0]), (1, degrees[1]), (2, degrees[2])])
+    }
+
+    /// The frame of a base vector (its x) and a normal vector (its z), as Heidenhain's `PLANE
+    /// VECTOR BX BY BZ NX NY NZ` defines it: both normalised, y = z × x. An error when either is
+    /// zero or they are not perpendicular (to 1e-6 after normalising).
+    pub fn from_vectors(origin: [f64; 3], base: [f64; 3], normal: [f64; 3]) -> Result<Frame, String> {
+        let unit = |v: [f64; 3], what: &str| {
+            let n = dot(v, v).sqrt();
+            if n < 1e-9 { Err(format!("the {what} vector is zero")) } else { Ok(v.map(|c| c / n)) }
+        };
+        let (x, z) = (unit(base, "base")?, unit(normal, "normal")?);
+        if dot(x, z).abs() > 1e-6 {
+            return Err(format!(
+                "the base vector is not perpendicular to the normal vector (cosine {:.2e})",
+                dot(x, z)
+            ));
+        }
+        Ok(Frame { origin, axes: [x, cross(z, x), z] })
+    }
+
+    /// `axes` rotations (axis index 0 = X, 1 = Y, 2 = Z; degrees), each about the frame's axis
+    /// as turned by those before it.
+    fn rotated(origin: [f64; 3], turns: &[(usize, f64)]) -> Frame {
+        let mut axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        for &(k, degrees) in turns {
+            let (s, c) = degrees.to_radians().sin_cos();
+            let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+            let (a, b) = (axes[i], axes[j]);
+            axes[i] = [0, 1, 2].map(|n| c * a[n] + s * b[n]);
+            axes[j] = [0, 1, 2].map(|n| c * b[n] - s * a[n]);
+        }
+        Frame { origin, axes }
+    }
+
+    /// A point of the plane in the frame before it.
+    pub fn outer(&self, p: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|n| self.origin[n] + (0..3).map(|k| p[k] * self.axes[k][n]).sum::<f64>())
+    }
+
+    /// A direction of the plane in the frame before it.
+    pub fn outer_direction(&self, v: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|n| (0..3).map(|k| v[k] * self.axes[k][n]).sum::<f64>())
+    }
+
+    /// A point of the frame before it in the plane's coordinates.
+    pub fn inner(&self, p: [f64; 3]) -> [f64; 3] {
+        self.inner_direction([0, 1, 2].map(|n| p[n] - self.origin[n]))
+    }
+
+    /// A direction of the frame before it in the plane's coordinates.
+    pub fn inner_direction(&self, v: [f64; 3]) -> [f64; 3] {
+        self.axes.map(|axis| dot(axis, v))
+    }
+
+    /// The plane's z axis (the tool axis of a 3+2 set-up) in the frame before it.
+    pub fn z(&self) -> [f64; 3] {
+        self.axes[2]
+    }
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 /// An NC program as a machine runs it.

@@ -10,13 +10,23 @@ fn arc(from: [f64; 3], to: [f64; 3], center: [f64; 3], plane: Plane, clockwise: 
         from_known: true,
         to,
         rotary: Rotary::default(),
+        vector: None,
         feed: Some(100.0),
         line: 1,
     }
 }
 
 fn feed(from: [f64; 3], to: [f64; 3]) -> Motion {
-    Motion { kind: MotionKind::Feed, from, from_known: true, to, rotary: Rotary::default(), feed: Some(100.0), line: 1 }
+    Motion {
+        kind: MotionKind::Feed,
+        from,
+        from_known: true,
+        to,
+        rotary: Rotary::default(),
+        vector: None,
+        feed: Some(100.0),
+        line: 1,
+    }
 }
 
 /// The lengths LinuxCNC's rs274 computes for the same arcs (the rate of an inverse-time `F1`
@@ -169,4 +179,31 @@ fn rotary_values_are_found_by_letter() {
     assert!(!r.set('X', 1.0));
     assert_eq!(r.get('B'), Some(12.5));
     assert_eq!(r.get('C'), None);
+}
+
+/// The working planes' frames: Fanuc's Euler angles Z X Z, Siemens's axis by axis X Y Z and
+/// Heidenhain's base and normal vectors give the same plane for the same set-up (the tool along
+/// +X, the plane's x along −Z, as postpro writes `G68.2 … I90 J90 K-90`, `CYCLE800(… 0, 90, 0 …)`
+/// and `PLANE VECTOR BX+0 BY+0 BZ-1 NX+1 NY+0 NZ+0`); points go out of the plane and back.
+#[test]
+fn working_plane_frames_agree_across_dialects() {
+    let fanuc = Frame::euler_zxz([1.0, 2.0, 3.0], [90.0, 90.0, -90.0]);
+    let heidenhain = Frame::from_vectors([1.0, 2.0, 3.0], [0.0, 0.0, -1.0], [2.0, 0.0, 0.0]).expect("a frame");
+    let siemens = Frame::euler_xyz([1.0, 2.0, 3.0], [0.0, 90.0, 0.0]);
+    for k in 0..3 {
+        assert!(close3(fanuc.axes[k], heidenhain.axes[k], 1e-12), "{fanuc:?} {heidenhain:?}");
+    }
+    assert!(close3(siemens.z(), [1.0, 0.0, 0.0], 1e-12) && close3(siemens.axes[0], [0.0, 0.0, -1.0], 1e-12));
+    // Rz(40)·Rx(30): the tool axis tilted 30° about X, then turned 40° about Z.
+    let z = Frame::euler_zxz([0.0; 3], [40.0, 30.0, 0.0]).z();
+    let (s30, c30, s40, c40) = (0.5, 0.75f64.sqrt(), 40f64.to_radians().sin(), 40f64.to_radians().cos());
+    assert!(close3(z, [s30 * s40, -s30 * c40, c30], 1e-12), "{z:?}");
+    // Rx(A)·Ry(B)·Rz(C): the z axis is Rx(A)·Ry(B)·z.
+    let f = Frame::euler_xyz([0.0; 3], [20.0, 30.0, 50.0]);
+    let (sa, ca, sb, cb) = (20f64.to_radians().sin(), 20f64.to_radians().cos(), 0.5, 0.75f64.sqrt());
+    assert!(close3(f.z(), [sb, -sa * cb, ca * cb], 1e-12), "{:?}", f.z());
+    let p = [4.0, -5.0, 6.0];
+    assert!(close3(f.inner(f.outer(p)), p, 1e-12) && close3(fanuc.outer([0.0, 0.0, 2.0]), [3.0, 2.0, 3.0], 1e-12));
+    let e = Frame::from_vectors([0.0; 3], [1.0, 0.0, 0.1], [0.0, 0.0, 1.0]).expect_err("not perpendicular");
+    assert!(e.contains("not perpendicular"), "{e}");
 }

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use postpro_cl::{ItemKind, Motion as ClMotion, MoveKind, ReadOptions, Source, ToolPath};
 use tests::compare::WINDOW;
+use tests::golden::siemens;
 use tests::nc::{Motion, Plane, Program};
 use tests::rs274::Rs274;
 
@@ -26,7 +27,7 @@ pub(crate) struct Written {
 fn extension(dialect: &str) -> &'static str {
     match dialect {
         "linuxcnc" => "ngc",
-        "fanuc" => "nc",
+        "fanuc" | "haas" => "nc",
         "siemens-840d" => "mpf",
         "heidenhain" => "h",
         other => panic!("no dialect {other}"),
@@ -108,6 +109,8 @@ pub(crate) struct ClHole {
     pub(crate) depth: f64,
     /// The R plane above the top, mm.
     pub(crate) clearance: f64,
+    /// The tool axis (the hole's axis, pointing out of it).
+    pub(crate) axis: [f64; 3],
     /// The CL line of the cycle.
     pub(crate) line: usize,
     /// The CL line of the hole's position (its `GOTO`).
@@ -192,6 +195,7 @@ pub(crate) fn read_cl(file: &Path, options: &ReadOptions) -> Cl {
                                 top: m.to.into(),
                                 depth: c.depth,
                                 clearance: c.clearance,
+                                axis: m.axis.into_inner().into(),
                                 line: *cycle_line,
                                 goto_line: line(item.span),
                             });
@@ -415,6 +419,15 @@ pub(crate) fn nc_python() -> Option<PathBuf> {
 /// What nc-gcode-interpreter makes of a Siemens program (`tests/interpreters/siemens.py`): per
 /// program line, the values of the axes `axes` names after it (`None` before an axis has one).
 pub(crate) fn siemens_rows(python: &Path, program: &Path, axes: &str) -> Result<Vec<Vec<Option<f64>>>, String> {
+    let table = siemens_table(python, program, axes)?;
+    Ok(table.iter().map(|row| axes.chars().map(|a| row.values.get(&a).copied()).collect()).collect())
+}
+
+/// nc-gcode-interpreter's table of a Siemens program (`tests/interpreters/siemens.py`), as the
+/// harness's Siemens reader takes it (`tests::golden::siemens`): per program line, its motion
+/// mode, the F it programs, the axes it programs, and the values of the axes `axes` names (one
+/// letter each; `I`, `J`, `K` for arc centres) after it. An error is the interpreter's message.
+pub(crate) fn siemens_table(python: &Path, program: &Path, axes: &str) -> Result<Vec<siemens::Row>, String> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interpreters/siemens.py");
     let o = std::process::Command::new(python)
         .arg(&script)
@@ -432,5 +445,23 @@ pub(crate) fn siemens_rows(python: &Path, program: &Path, axes: &str) -> Result<
     }
     let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
     // Columns: row, motion, feed type, F, the axes programmed, then the axes' values.
-    Ok(stdout.lines().skip(1).map(|row| row.split(',').skip(5).map(|v| v.parse().ok()).collect()).collect())
+    let letters: Vec<char> = axes.chars().collect();
+    Ok(stdout
+        .lines()
+        .skip(1)
+        .map(|row| {
+            let f: Vec<&str> = row.split(',').collect();
+            let field = |k: usize| f.get(k).copied().unwrap_or("");
+            siemens::Row {
+                motion: Some(field(1)).filter(|m| !m.is_empty()).map(str::to_string),
+                feed: field(3).parse().ok(),
+                programmed: field(4).to_string(),
+                values: letters
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, &a)| field(5 + k).parse::<f64>().ok().map(|v| (a, v)))
+                    .collect(),
+            }
+        })
+        .collect())
 }

@@ -276,6 +276,26 @@ pub(crate) fn tips(
     out
 }
 
+/// The tolerances within which the tip reaches a CL point: in position (mm), half a unit of
+/// the last decimal written on each linear axis and the rotary axes' half units turning the
+/// point about them (lever: its distance from the part zero, the part zero's from the machine
+/// origin, and 300 mm for pivots and tool lengths); in the tool axis (degrees), the machine's
+/// singular cone (where the free axis is carried the axis may deviate by up to it) and the
+/// rotary rounding.
+pub(crate) fn tolerances(machine: &postpro_machine::model::Machine, inch: bool) -> (impl Fn(&ClPoint) -> f64, f64) {
+    let linear = if inch { 0.5e-4 * 25.4 } else { 0.5e-3 };
+    let rotary_deg: f64 = machine
+        .axes
+        .iter()
+        .filter(|a| a.kind == postpro_machine::model::AxisKind::Rotary)
+        .map(|a| 0.5 * 10f64.powi(-(a.decimals as i32)))
+        .sum();
+    let reference = machine.chain.part_origin.translation.vector.norm() + 300.0;
+    let tip =
+        move |p: &ClPoint| 3f64.sqrt() * linear + (p.tip.coords.norm() + reference) * rotary_deg.to_radians() + 1e-6;
+    (tip, machine.policy.singular_cone.to_degrees() + rotary_deg + 1e-6)
+}
+
 /// Every CL point is a tip the program reaches, in order (the program may reach more between),
 /// within `tolerance(point)` (mm) and `axis_tolerance_deg`: the largest distance and angle found
 /// (each point matched with the nearest of the tips in a row that reach it), or the first CL
