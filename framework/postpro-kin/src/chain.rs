@@ -34,12 +34,17 @@ impl Rotary {
         UnitQuaternion::from_axis_angle(&self.omega, angle)
     }
 
-    /// The rigid motion of turning this axis by `angle`.
-    fn motion(&self, angle: f64) -> Isometry3<f64> {
-        let r = self.rotation(angle);
-        // x ↦ q + R(x − q) = R x + (q − R q)
-        Isometry3::from_parts((self.q.coords - r * self.q.coords).into(), r)
+    /// Turns `x` about this axis by the angle whose sine and cosine are `(s, c)` (Rodrigues'
+    /// formula on the vector: a few dozen operations, no quaternion): `q + R(x − q)`.
+    fn turn(&self, x: &Point3<f64>, (s, c): (f64, f64)) -> Point3<f64> {
+        self.q + rodrigues(&self.omega, &(x - self.q), s, c)
     }
+}
+
+/// `R(ω, θ) v` for (sin θ, cos θ) = (s, c).
+fn rodrigues(w: &Unit<Vector3<f64>>, v: &Vector3<f64>, s: f64, c: f64) -> Vector3<f64> {
+    let w = w.as_ref();
+    v * c + w.cross(v) * s + w * (w.dot(v) * (1.0 - c))
 }
 
 /// Where the rotary axes sit.
@@ -65,6 +70,7 @@ pub struct Chain {
     /// the axis values.
     linear_inverse: Matrix3<f64>,
     part_origin: Isometry3<f64>,
+    part_origin_inverse: Isometry3<f64>,
     tip0: Point3<f64>,
     k0: Unit<Vector3<f64>>,
 }
@@ -95,6 +101,7 @@ impl Chain {
         let linear_inverse = e.pseudo_inverse(1e-12).unwrap_or_else(|_| Matrix3::zeros());
         Chain {
             part_origin: machine.chain.part_origin,
+            part_origin_inverse: machine.chain.part_origin.inverse(),
             tip0: machine.chain.tool_tip(),
             k0: machine.chain.tool_direction,
             machine,
@@ -106,20 +113,24 @@ impl Chain {
         }
     }
 
-    fn part_transform(&self, joints: &Joints) -> Isometry3<f64> {
-        let mut t = Isometry3::identity();
-        for r in &self.part {
-            t *= r.motion(joints[r.index]);
+    /// The part point `p` in the base frame: `E(p₁)∘E(p₂)∘M_part (p)`.
+    fn part_to_base(&self, joints: &Joints, p: &Point3<f64>) -> Point3<f64> {
+        let mut x = self.part_origin * p;
+        for r in self.part.iter().rev() {
+            x = r.turn(&x, joints[r.index].sin_cos());
         }
-        t * self.part_origin
+        x
     }
 
-    fn tool_transform(&self, joints: &Joints) -> Isometry3<f64> {
-        let mut t = Isometry3::identity();
-        for r in &self.tool {
-            t *= r.motion(joints[r.index]);
+    /// The tool tip in the base frame, its linear axes at zero, and the tool axis there.
+    fn tool_in_base(&self, joints: &Joints) -> (Point3<f64>, Vector3<f64>) {
+        let (mut tip, mut axis) = (self.tip0, self.k0.into_inner());
+        for r in self.tool.iter().rev() {
+            let (s, c) = joints[r.index].sin_cos();
+            tip = r.turn(&tip, (s, c));
+            axis = rodrigues(&r.omega, &axis, s, c);
         }
-        t
+        (tip, axis)
     }
 
     /// The rotation from the part frame to the base frame at all-zero.
@@ -147,8 +158,8 @@ impl Chain {
 
     /// The linear axes that put the tip on `pose` once the rotary angles in `joints` are set.
     pub(crate) fn place_linear(&self, pose: &Pose, joints: &mut Joints) {
-        let tip_base = self.part_transform(joints) * pose.tip;
-        let tool_tip = self.tool_transform(joints) * self.tip0;
+        let tip_base = self.part_to_base(joints, &pose.tip);
+        let (tool_tip, _) = self.tool_in_base(joints);
         let values = self.linear_inverse * (tip_base - tool_tip);
         for (k, &i) in self.linear.iter().enumerate().take(3) {
             joints[i] = values[k];
@@ -216,15 +227,18 @@ impl Kinematics for Chain {
     }
 
     fn forward(&self, joints: &Joints) -> Pose {
-        let part = self.part_transform(joints);
-        let tool = self.tool_transform(joints);
-        let mut tip_base = tool * self.tip0;
+        let (mut tip, mut axis) = self.tool_in_base(joints);
         for &i in &self.linear {
-            tip_base += self.machine.axes[i].direction.into_inner() * joints[i];
+            tip += self.machine.axes[i].direction.into_inner() * joints[i];
         }
-        let axis_base = tool.rotation * self.k0.into_inner();
-        let inverse = part.inverse();
-        Pose { tip: inverse * tip_base, axis: Unit::new_normalize(inverse.rotation * axis_base) }
+        // Back through the part side: E(p₁)⁻¹ first, then E(p₂)⁻¹, then M_part⁻¹.
+        for r in &self.part {
+            let (s, c) = joints[r.index].sin_cos();
+            tip = r.turn(&tip, (-s, c));
+            axis = rodrigues(&r.omega, &axis, -s, c);
+        }
+        let inverse = &self.part_origin_inverse;
+        Pose { tip: inverse * tip, axis: Unit::new_normalize(inverse.rotation * axis) }
     }
 
     fn inverse(&self, pose: &Pose, out: &mut Solutions) {
