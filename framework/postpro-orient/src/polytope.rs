@@ -314,15 +314,17 @@ pub fn bounds(kin: &dyn Kinematics, boxes: &JointBoxes, level: Level) -> Result<
 }
 
 /// The largest value of `f` over one turn: sampled, then refined by golden section around the
-/// best sample. Returns the angle in (−π, π] and the value.
+/// best sample. Returns the angle in (−π, π] and the value. Of maxima equal but for rounding
+/// (a symmetric polytope has several), the one nearest 0.
 pub(crate) fn maximize_on_turn(mut f: impl FnMut(f64) -> Result<f64, OrientError>) -> Result<(f64, f64), OrientError> {
     const SAMPLES: usize = 1440;
     let step = std::f64::consts::TAU / SAMPLES as f64;
-    let mut best = (0.0, f64::NEG_INFINITY);
+    let mut best: (f64, f64) = (0.0, f64::NEG_INFINITY);
     for k in 0..SAMPLES {
         let a = -std::f64::consts::PI + step * (k as f64 + 1.0);
         let v = f(a)?;
-        if v > best.1 {
+        let tie = (v - best.1).abs() <= 1e-9 * v.abs().max(1.0);
+        if (v > best.1 && !tie) || (tie && a.abs() < best.0.abs()) {
             best = (a, v);
         }
     }
