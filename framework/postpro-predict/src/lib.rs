@@ -265,3 +265,66 @@ impl<'k> Predictor<'k> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use postpro_motion::Mode;
+
+    use super::*;
+
+    /// The motion program of a zig-zag finishing path of `points` points on the Mikron.
+    fn zigzag(points: usize) -> (postpro_machine::model::Machine, postpro_motion::Program) {
+        let machine =
+            postpro_machine::Registry::builtin().expect("built-ins").find("mikron").expect("built in").machine.clone();
+        let mut text = String::from("FEDRAT/MMPM,3000\nGOTO/0,0,10,0,0,1\n");
+        for k in 0..points {
+            let (pass, i) = (k / 100, k % 100);
+            let x = if pass % 2 == 0 { i } else { 99 - i };
+            let tilt = 0.2 * (k as f64 * 0.01).sin();
+            let y = 0.5 * pass as f64;
+            text.push_str(&format!("GOTO/{x},{y},{:.3},{:.6},0,{:.6}\n", 0.01 * i as f64, tilt.sin(), tilt.cos()));
+        }
+        let path = postpro_cl::read(&postpro_cl::Source::new("zigzag.cl", text));
+        let kin = postpro_kin::solver_for(&machine);
+        let solved = postpro_kin::solve(kin.as_ref(), &path, &machine.policy).expect("solves");
+        let program = postpro_motion::study(&path, &solved, kin.as_ref(), Mode::InverseTime).expect("builds");
+        (machine, program)
+    }
+
+    /// Linearity, by counting work: the streamed prediction of a program four times as long
+    /// chooses at most ~4.5 times the steps and examines at most ~4.5 times the junctions, with
+    /// both planners.
+    #[test]
+    fn the_prediction_works_in_linear_time() {
+        for planner in [Planner::InverseTime, Planner::Vpop] {
+            let mut work = Vec::new();
+            for n in [10_000, 40_000] {
+                let (machine, program) = zigzag(n);
+                let kin = postpro_kin::solver_for(&machine);
+                let options = Options { planner, ..Options::default() };
+                plan::work::take();
+                let mut blocks = Blocks::new(&machine);
+                let mut reader = moves::Reader::new(Timing::TipFeed);
+                let mut predictor = Predictor::new(kin.as_ref(), &options, blocks.axes, true);
+                for block in &program.blocks {
+                    reader.block(&mut blocks, &machine, block);
+                    predictor.advance(&blocks);
+                    let from = predictor.needs_from(&blocks);
+                    blocks.forget_before(from);
+                }
+                predictor.finish(&blocks);
+                assert!(predictor.totals().cycle_time > 0.0);
+                work.push(plan::work::take());
+            }
+            for (what, k) in [("steps", 0), ("junctions examined", 1)] {
+                let ratio = work[1][k] as f64 / work[0][k] as f64;
+                assert!(
+                    ratio <= 4.5,
+                    "{planner:?}: {what}: {} for 10 k points, {} for 40 k ({ratio:.2}×)",
+                    work[0][k],
+                    work[1][k]
+                );
+            }
+        }
+    }
+}

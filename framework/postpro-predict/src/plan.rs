@@ -22,6 +22,33 @@
 use crate::profile::speed_change;
 use crate::window::Window;
 
+/// Counters of the work done, kept in the unit tests only: linearity is tested by counting
+/// work, never by timing.
+#[cfg(test)]
+pub(crate) mod work {
+    use std::cell::Cell;
+
+    thread_local! {
+        /// Steps chosen (a cruise taken in one go counts once).
+        pub(crate) static STEPS: Cell<u64> = const { Cell::new(0) };
+        /// Junctions examined while choosing them.
+        pub(crate) static JUNCTIONS: Cell<u64> = const { Cell::new(0) };
+    }
+
+    /// The counters' values, reset.
+    pub(crate) fn take() -> [u64; 2] {
+        [STEPS.with(|c| c.replace(0)), JUNCTIONS.with(|c| c.replace(0))]
+    }
+}
+
+/// One unit of work of the `work` counter named (nothing outside the unit tests).
+macro_rules! tally {
+    ($counter:ident) => {
+        #[cfg(test)]
+        work::$counter.with(|c| c.set(c.get() + 1));
+    };
+}
+
 /// What holds the feed back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Limit {
@@ -271,12 +298,15 @@ pub struct Sample {
     /// True when `bound` is a cap ahead that the motion brakes for (a junction, an exact stop,
     /// the end of the look-ahead), false when it is a cap of the piece the motion is on.
     pub ahead: bool,
+    /// The interpolation periods the sample stands for: 1, or more for a cruise at constant
+    /// speed taken in one go ([`Observer::every_period`]).
+    pub periods: u64,
 }
 
 impl Sample {
     /// A sample at rest, held by `limit` (`bound` alike).
     fn at_rest(t: f64, u: f64, j: f64, piece: usize, limit: Limit, ahead: bool) -> Sample {
-        Sample { t, u, v: 0.0, a: 0.0, j, piece, limit, bound: limit, ahead }
+        Sample { t, u, v: 0.0, a: 0.0, j, piece, limit, bound: limit, ahead, periods: 1 }
     }
 }
 
@@ -286,6 +316,13 @@ pub trait Observer {
     fn sample(&mut self, sample: &Sample);
     /// The motion crossed the end of `piece` at time `t` with `u̇ = v`; `limit` held that step.
     fn crossing(&mut self, piece: usize, t: f64, v: f64, limit: Limit);
+    /// True when it wants a sample every period; false lets a cruise at constant speed, where
+    /// nothing ahead can bind, come as one sample at its end ([`Sample::periods`]), which the
+    /// prediction's own observer takes whether it keeps the samples or not (its figures never
+    /// depend on that).
+    fn every_period(&self) -> bool {
+        true
+    }
 }
 
 /// Runs the motion along the whole `track` with period `h` (s), reporting to `observer`. Returns
@@ -419,10 +456,36 @@ impl Stepper {
     }
 
     fn steps(&mut self, track: &Track, observer: &mut dyn Observer) -> Progress {
+        let skip = !observer.every_period();
         loop {
+            if skip && let Some(n) = self.cruise_periods(track) {
+                // Cruising at the piece's cap with nothing ahead within braking reach: the next
+                // `n` steps are all the same, taken at once.
+                let cap = track.pieces[self.k];
+                self.t += n as f64 * self.h;
+                self.u += n as f64 * self.v * self.h;
+                self.guard += n;
+                tally!(STEPS);
+                let limit = cap.velocity_limit;
+                let sample = Sample {
+                    t: self.t,
+                    u: self.u,
+                    v: self.v,
+                    a: 0.0,
+                    j: 0.0,
+                    piece: self.k,
+                    limit,
+                    bound: limit,
+                    ahead: false,
+                    periods: n,
+                };
+                observer.sample(&sample);
+                continue;
+            }
             // The last piece of the track, once it is complete.
             let n = track.complete.then(|| track.len());
             let Some((j, limit, ahead)) = self.choose(track) else { return Progress::Waiting };
+            tally!(STEPS);
             self.guard += 1;
             let piece = track.pieces[self.k];
             let piece_was = self.k;
@@ -539,10 +602,34 @@ impl Stepper {
                 a1.clamp(low.max(-q.acceleration), high.min(q.acceleration))
             };
             let shown = if v1 >= 0.999 * track.pieces[now].velocity { track.pieces[now].velocity_limit } else { limit };
-            let sample =
-                Sample { t: self.t, u: u1, v: v1, a: self.a, j, piece: now, limit: shown, bound: limit, ahead };
+            let sample = Sample {
+                t: self.t,
+                u: u1,
+                v: v1,
+                a: self.a,
+                j,
+                piece: now,
+                limit: shown,
+                bound: limit,
+                ahead,
+                periods: 1,
+            };
             observer.sample(&sample);
         }
+    }
+
+    /// The periods of a cruise the next steps would take one at a time with nothing to decide (at
+    /// least two), if the motion cruises.
+    fn cruise_periods(&self, track: &Track) -> Option<u64> {
+        let (piece, until) = self.cruise?;
+        let here = track.pieces.get(self.k)?;
+        if piece != self.k || self.a != 0.0 || self.v != here.velocity || self.v <= 0.0 {
+            return None;
+        }
+        // The steps m = 1, 2, … while u + m·v·h < until.
+        let room = (until - self.u) / (self.v * self.h);
+        let n = if room.is_finite() && room > 0.0 { room.ceil() as u64 - 1 } else { 0 };
+        (n >= 2).then_some(n)
     }
 
     /// The last piece the CNC sees from the current one (the window's end; the track's end), if
@@ -643,6 +730,7 @@ impl Stepper {
         let mut could_bind = false;
         let mut m = self.k;
         loop {
+            tally!(JUNCTIONS);
             if last.is_some_and(|last| m > last) {
                 break;
             }

@@ -437,6 +437,8 @@ pub(crate) struct Collector {
     pub(crate) samples: Option<Samples>,
     last_tip: Option<(f64, nalgebra::Point3<f64>)>,
     last_sample: Option<(f64, usize)>,
+    /// The time of the last sample.
+    last_time: f64,
     pub(crate) length_below: f64,
     pub(crate) count: u64,
     threshold: f64,
@@ -514,6 +516,7 @@ impl Collector {
             samples: samples.then(|| Samples { axes, ..Samples::default() }),
             last_tip: None,
             last_sample: None,
+            last_time: 0.0,
             length_below: 0.0,
             count: 0,
             threshold,
@@ -809,12 +812,11 @@ impl Observer for Observing<'_> {
     fn sample(&mut self, s: &Sample) {
         let (c, seen) = (&mut *self.collector, self.seen);
         let blocks = seen.blocks;
-        c.count += 1;
+        c.count += s.periods;
         c.account(seen, s);
         let block = seen.owner[s.piece];
         c.reach(blocks, block, s.v, s.limit);
         // The tip length covered since the last sample, below the threshold or not.
-        let length = c.piece_length[s.piece];
         let tip_feed = c.scale[block];
         if let Some((u0, p0)) = c.last_sample
             && p0 == s.piece
@@ -825,7 +827,63 @@ impl Observer for Observing<'_> {
                 c.length_below += (s.u - u0) * tip_feed;
             }
         }
+        let (u0, t0) = (c.last_sample.map_or(s.u, |(u, _)| u), c.last_time);
         c.last_sample = Some((s.u, s.piece));
+        c.last_time = s.t;
+        if c.samples.is_none() {
+            return;
+        }
+        // A cruise taken in one go stands for a sample every period: kept each.
+        let periods = s.periods.max(1);
+        for k in 1..=periods {
+            let at = if k == periods {
+                *s
+            } else {
+                let share = k as f64 / periods as f64;
+                Sample { t: t0 + (s.t - t0) * share, u: u0 + (s.u - u0) * share, periods: 1, ..*s }
+            };
+            self.record(&at, block);
+        }
+    }
+
+    fn every_period(&self) -> bool {
+        false
+    }
+
+    fn crossing(&mut self, piece: usize, t: f64, v: f64, limit: Limit) {
+        let (c, seen) = (&mut *self.collector, self.seen);
+        let block = seen.owner[piece];
+        c.reach(seen.blocks, block, v, limit);
+        c.results[block].time = t - c.entered[block];
+        // The step's part in the piece it leaves; a dwell after it belongs to no step.
+        c.split.piece = piece;
+        let end = c.piece_start[piece] + c.piece_length[piece];
+        c.part(seen.owner, t, end);
+        c.split.speeds.push((block, v));
+        c.split.u = end;
+        c.split.t = t;
+        if piece + 1 < seen.track.len() {
+            c.split.t += seen.track.junctions[piece].dwell;
+            c.split.piece = piece + 1;
+        }
+        if let Some(&next) = seen.owner.get(piece + 1) {
+            c.split.speeds.push((next, v));
+            // The blocks in between have no duration.
+            for b in block + 1..=next {
+                c.entered[b] = t;
+            }
+            c.reach(seen.blocks, next, v, limit);
+        }
+    }
+}
+
+impl Observing<'_> {
+    /// Keeps sample `s` of `block`: the axes' positions to jerk, the feeds and what held them.
+    fn record(&mut self, s: &Sample, block: usize) {
+        let (c, seen) = (&mut *self.collector, self.seen);
+        let blocks = seen.blocks;
+        let length = c.piece_length[s.piece];
+        let tip_feed = c.scale[block];
         let shown = c.shown(blocks, block, s.v, s.limit);
         let Some(samples) = c.samples.as_mut() else { return };
         let fraction = ((s.u - c.piece_start[s.piece]) / length).clamp(0.0, 1.0);
@@ -876,31 +934,5 @@ impl Observer for Observing<'_> {
             None => 0.0,
         };
         samples.relative_feed.push(relative);
-    }
-
-    fn crossing(&mut self, piece: usize, t: f64, v: f64, limit: Limit) {
-        let (c, seen) = (&mut *self.collector, self.seen);
-        let block = seen.owner[piece];
-        c.reach(seen.blocks, block, v, limit);
-        c.results[block].time = t - c.entered[block];
-        // The step's part in the piece it leaves; a dwell after it belongs to no step.
-        c.split.piece = piece;
-        let end = c.piece_start[piece] + c.piece_length[piece];
-        c.part(seen.owner, t, end);
-        c.split.speeds.push((block, v));
-        c.split.u = end;
-        c.split.t = t;
-        if piece + 1 < seen.track.len() {
-            c.split.t += seen.track.junctions[piece].dwell;
-            c.split.piece = piece + 1;
-        }
-        if let Some(&next) = seen.owner.get(piece + 1) {
-            c.split.speeds.push((next, v));
-            // The blocks in between have no duration.
-            for b in block + 1..=next {
-                c.entered[b] = t;
-            }
-            c.reach(seen.blocks, next, v, limit);
-        }
     }
 }
