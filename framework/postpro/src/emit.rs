@@ -80,6 +80,9 @@ pub(crate) struct EmitArgs {
     /// Number the blocks (N10, N20, …).
     #[arg(long)]
     block_numbers: bool,
+    /// Print on standard error how long each pass took and the throughput (CL points per second).
+    #[arg(long)]
+    timing: bool,
 }
 
 /// `--arcs`.
@@ -253,6 +256,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         tcp_orientation,
         insert_verbatim: args.insert == InsertArg::Verbatim,
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
+        timing: args.timing,
     };
     crate::stream::run(&request, &stage)
 }

@@ -66,6 +66,8 @@ pub(crate) struct Request<'a> {
     pub(crate) insert_verbatim: bool,
     /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
     pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
+    /// Say how long each pass took (`--timing`).
+    pub(crate) timing: bool,
 }
 
 /// What the first pass found.
@@ -300,6 +302,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
 
     // 1. The survey.
     stage("reading");
+    let started = std::time::Instant::now();
     let surveyed = survey(&source, &read_options, kin, policy, setup.tool_table.as_ref());
     if surveyed.diagnostics.iter().any(postpro_cl::Diagnostic::is_error) {
         for d in surveyed.diagnostics.iter().filter(|d| d.is_error()) {
@@ -336,6 +339,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
 
     // 2. The prediction, and the survey of the steps.
     stage(if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });
+    let surveyed_at = started.elapsed();
     let unknown: BTreeSet<String> =
         surveyed.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
     let mut motion_options = postpro_emit::motion_options(dialect, mode, !how.shapes.linear_arcs);
@@ -385,6 +389,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
 
     // 3. The program.
     stage("writing the program");
+    let predicted_at = started.elapsed();
     let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
     let options = Options {
         units: setup.units(&machine),
@@ -460,6 +465,22 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
             Failure::Refused(message) => message,
         };
         return Err(fail(&message, 1));
+    }
+    if how.timing {
+        let total = started.elapsed();
+        let seconds = total.as_secs_f64();
+        eprintln!(
+            "timing: {} CL points ({:.1} MB) in {seconds:.3} s: {:.0} k CL points/s, {:.1} MB/s (survey {:.3} s, {} {:.3} s, \
+             writing {:.3} s)",
+            summary.cl_points,
+            source.text().len() as f64 / 1e6,
+            summary.cl_points as f64 / seconds / 1e3,
+            source.text().len() as f64 / seconds / 1e6,
+            surveyed_at.as_secs_f64(),
+            if how.prediction.is_some() { "prediction" } else { "solving" },
+            (predicted_at - surveyed_at).as_secs_f64(),
+            (total - predicted_at).as_secs_f64(),
+        );
     }
     let (inserts, first_insert) = surveyed.inserts;
     if let (false, Some(first)) = (how.insert_verbatim, first_insert) {
