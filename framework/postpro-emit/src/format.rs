@@ -3,9 +3,10 @@
 
 /// Writes `value` with `decimals` digits after the point into `out`.
 pub fn push_number(out: &mut String, value: f64, decimals: usize, plus: bool) {
+    const POWERS: [u64; 10] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
     let decimals = decimals.min(9);
-    let scale = 10u64.pow(decimals as u32) as f64;
-    let scaled = (value.abs() * scale).round();
+    let divisor = POWERS[decimals];
+    let scaled = (value.abs() * divisor as f64).round();
     if !scaled.is_finite() || scaled >= 9.0e15 {
         // Out of the exact range (no machine coordinate is): the standard formatting.
         out.push_str(&format!("{value:.decimals$}"));
@@ -21,16 +22,15 @@ pub fn push_number(out: &mut String, value: f64, decimals: usize, plus: bool) {
     } else if plus {
         out.push('+');
     }
-    let divisor = 10u64.pow(decimals as u32);
-    push_u64(out, units / divisor);
+    let mut digits = itoa::Buffer::new();
+    out.push_str(digits.format(units / divisor));
     if decimals > 0 {
         out.push('.');
-        let frac = units % divisor;
-        let digits = frac.checked_ilog10().map_or(1, |d| d as usize + 1);
-        for _ in digits..decimals {
+        let frac = digits.format(units % divisor);
+        for _ in frac.len()..decimals {
             out.push('0');
         }
-        push_u64(out, frac);
+        out.push_str(frac);
     }
 }
 
@@ -54,21 +54,6 @@ pub fn number(value: f64, decimals: usize, plus: bool) -> String {
     let mut s = String::with_capacity(16);
     push_number(&mut s, value, decimals, plus);
     s
-}
-
-fn push_u64(out: &mut String, mut v: u64) {
-    let mut buf = [0u8; 20];
-    let mut i = buf.len();
-    loop {
-        i -= 1;
-        buf[i] = b'0' + (v % 10) as u8;
-        v /= 10;
-        if v == 0 {
-            break;
-        }
-    }
-    // The buffer holds ASCII digits only.
-    out.push_str(std::str::from_utf8(&buf[i..]).unwrap_or("0"));
 }
 
 #[cfg(test)]

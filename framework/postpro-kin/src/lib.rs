@@ -24,7 +24,7 @@ mod tool;
 
 pub use chain::Chain;
 pub use closed::TableTableClosedForm;
-pub use linearize::{Linearizer, Linearizing, linearize};
+pub use linearize::{Linearizer, Linearizing, Shape, linearize};
 pub use path::{targets, targets_of};
 pub use policy::{
     BranchGraph, Choice, Collected, Decision, Jump, Noted, Placer, Policy, SolveError, Solved, Step, StepKind,

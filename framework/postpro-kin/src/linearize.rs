@@ -61,6 +61,53 @@ pub struct Linearizer {
     inserted: usize,
     sols: Solutions,
     points: Vec<Step>,
+    /// The subdivisions: recorded (each deviation check's outcome) or replayed.
+    shape: Shape,
+}
+
+/// The outcome of every deviation check of a linearization, in order, a bit each: a second
+/// linearization of the same steps (a later pass of a streamed job) replays it and checks no
+/// deviation again.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Shape {
+    words: Vec<u64>,
+    len: usize,
+    /// Replaying: the next bit to read; `None`: recording (or neither, when `off`).
+    read: Option<usize>,
+    off: bool,
+}
+
+impl Shape {
+    /// Neither recorded nor replayed.
+    fn off() -> Shape {
+        Shape { off: true, ..Shape::default() }
+    }
+
+    /// The outcome of the next check: replayed, or `check()` recorded.
+    fn split(&mut self, check: impl FnOnce() -> bool) -> bool {
+        if self.off {
+            return check();
+        }
+        if let Some(k) = self.read.as_mut() {
+            let bit = *k < self.len && self.words[*k / 64] & (1 << (*k % 64)) != 0;
+            *k += 1;
+            return bit;
+        }
+        let bit = check();
+        if self.len.is_multiple_of(64) {
+            self.words.push(0);
+        }
+        if bit {
+            self.words[self.len / 64] |= 1 << (self.len % 64);
+        }
+        self.len += 1;
+        bit
+    }
+
+    /// Bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.words.capacity() * 8
+    }
 }
 
 impl Linearizer {
@@ -76,7 +123,23 @@ impl Linearizer {
             inserted: 0,
             sols: Solutions::new(),
             points: Vec::new(),
+            shape: Shape::off(),
         }
+    }
+
+    /// A linearization that records its subdivisions ([`Linearizer::shape`]).
+    pub fn recording(policy: &Policy) -> Linearizer {
+        Linearizer { shape: Shape::default(), ..Linearizer::new(policy) }
+    }
+
+    /// A linearization of the same steps again that replays `shape`, recorded by another.
+    pub fn replaying(policy: &Policy, shape: Shape) -> Linearizer {
+        Linearizer { shape: Shape { read: Some(0), off: false, ..shape }, ..Linearizer::new(policy) }
+    }
+
+    /// The subdivisions recorded.
+    pub fn shape(self) -> Shape {
+        Shape { read: None, ..self.shape }
     }
 
     /// Points inserted so far.
@@ -108,7 +171,8 @@ impl Linearizer {
         {
             self.points.clear();
             let mut points = std::mem::take(&mut self.points);
-            self.inserted += subdivide(kin, &prev, &step, (self.tolerance, self.cone), 0, &mut points, &mut self.sols);
+            let mut split = Split { shape: &mut self.shape, sols: &mut self.sols, out: &mut points };
+            self.inserted += split.subdivide(kin, &prev, &step, (self.tolerance, self.cone), 0);
             for p in points.drain(..) {
                 self.given += 1;
                 out.step(p);
@@ -160,24 +224,37 @@ pub fn deviation(kin: &dyn Kinematics, a: &Step, b: &Step) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn subdivide(
-    kin: &dyn Kinematics,
-    a: &Step,
-    b: &Step,
-    (tolerance, cone): (f64, f64),
-    depth: u32,
-    out: &mut Vec<Step>,
-    sols: &mut Solutions,
-) -> usize {
-    if depth >= MAX_DEPTH || deviation(kin, a, b) <= tolerance {
-        return 0;
+/// One subdivision: its shape, scratch and the points it inserts.
+struct Split<'a> {
+    shape: &'a mut Shape,
+    sols: &'a mut Solutions,
+    out: &'a mut Vec<Step>,
+}
+
+impl Split<'_> {
+    fn subdivide(
+        &mut self,
+        kin: &dyn Kinematics,
+        a: &Step,
+        b: &Step,
+        (tolerance, cone): (f64, f64),
+        depth: u32,
+    ) -> usize {
+        // Anything but "within tolerance" splits, a NaN deviation too.
+        let within = |d: f64| d.partial_cmp(&tolerance).is_some_and(|o| o != std::cmp::Ordering::Greater);
+        if !self.shape.split(|| depth < MAX_DEPTH && !within(deviation(kin, a, b))) {
+            return 0;
+        }
+        let pose =
+            Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * 0.5, axis: slerp(&a.pose.axis, &b.pose.axis, 0.5) };
+        let Some(joints) = nearest_solution(kin, &pose, &a.joints.lerp(&b.joints, 0.5), cone, self.sols) else {
+            return 0;
+        };
+        let mid = Step { joints, pose, rapid: false, span: b.span, kind: StepKind::Linearized };
+        let left = self.subdivide(kin, a, &mid, (tolerance, cone), depth + 1);
+        self.out.push(mid);
+        left + 1 + self.subdivide(kin, &mid, b, (tolerance, cone), depth + 1)
     }
-    let pose = Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * 0.5, axis: slerp(&a.pose.axis, &b.pose.axis, 0.5) };
-    let Some(joints) = nearest_solution(kin, &pose, &a.joints.lerp(&b.joints, 0.5), cone, sols) else { return 0 };
-    let mid = Step { joints, pose, rapid: false, span: b.span, kind: StepKind::Linearized };
-    let left = subdivide(kin, a, &mid, (tolerance, cone), depth + 1, out, sols);
-    out.push(mid);
-    left + 1 + subdivide(kin, &mid, b, (tolerance, cone), depth + 1, out, sols)
 }
 
 /// The inverse solution closest to `near` (rotary angles unwound next to it). Within the

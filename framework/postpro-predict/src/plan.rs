@@ -724,6 +724,9 @@ impl Stepper {
         // there (the speed carries over too: the junction's cap has it).
         let (mut a_path, mut j_path) = (p.acceleration, p.jerk);
         let mut reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
+        // The reach only grows as the limits tighten along the scan: computed (with the state and
+        // limits of the last tightening) only where it decides whether the scan goes on.
+        let mut stale: Option<(f64, f64, f64, f64)> = None;
         // Where the first junction beyond reach comes into it, and whether any junction could
         // bind: what a cruise may skip.
         let mut comes_into_reach = None;
@@ -740,15 +743,20 @@ impl Stepper {
             if m > self.k && (pieces[m].acceleration < a_path || pieces[m].jerk < j_path) {
                 a_path = a_path.min(pieces[m].acceleration);
                 j_path = j_path.min(pieces[m].jerk);
-                reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
+                stale = Some((v1, a1, a_path, j_path));
             }
             let at = self.ends[m];
             // Beyond the braking reach nothing binds yet. Reaching a cap above 0 can take up to
             // an eighth more room than stopping (jerk-limited braking to v0/3 from v0, or to
             // A²/2J), hence the margin: a junction must be seen before its braking begins.
             if at - u1 > 1.25 * reach {
-                comes_into_reach = Some(at - 1.25 * reach);
-                break;
+                if let Some((v, a, a_limit, j_limit)) = stale.take() {
+                    reach = reach_distance(v, a, 0.0, a_limit, j_limit, p.jerk);
+                }
+                if at - u1 > 1.25 * reach {
+                    comes_into_reach = Some(at - 1.25 * reach);
+                    break;
+                }
             }
             // The window's end, unless the program stops there anyway.
             let (cap, why) = if Some(m) == last && m + 1 < track.len() && self.caps[m].0 > 0.0 {

@@ -22,7 +22,9 @@ use std::process::ExitCode;
 
 use postpro_cl::{Item, ItemKind, ItemSink, Motion, ProgramInfo, Source, Span, TextKind, ToolAxis};
 use postpro_emit::{Dialect, EmitError, Options, WriteError};
-use postpro_kin::{BranchGraph, Collected, Kinematics, Linearizer, Linearizing, Placer, SolveError, Stretches, Target};
+use postpro_kin::{
+    BranchGraph, Collected, Kinematics, Linearizer, Linearizing, Placer, Shape, SolveError, Stretches, Target,
+};
 use postpro_machine::model::{AxisKind, Machine, Travel};
 use postpro_motion::travel::TravelCheck;
 use postpro_motion::{MotionSink, SetUps, Stage, Survey, Surveyor, ToolingReader};
@@ -193,14 +195,22 @@ impl ItemSink for Motions<'_> {
     }
 }
 
+/// What a pass found: the motion program's counts and warnings, the survey of the steps (when
+/// asked for) and the linearization's subdivisions.
+struct Passed {
+    summary: postpro_motion::Summary,
+    survey: Option<Survey>,
+    shape: Shape,
+}
+
 impl Motions<'_> {
-    /// The end of the pass: the motion program's counts and warnings, and the survey of the steps.
-    fn finish(self) -> Result<(postpro_motion::Summary, Option<Survey>), PassError> {
+    /// The end of the pass.
+    fn finish(self) -> Result<Passed, PassError> {
         if let Some(e) = self.error {
             return Err(e);
         }
         let summary = self.stage.finish(self.linearizer.inserted()).map_err(PassError::Motion)?;
-        Ok((summary, self.surveyor.map(Surveyor::finish)))
+        Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: self.linearizer.shape() })
     }
 }
 
@@ -359,8 +369,8 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         None => &mut dropped,
     };
     let predicted = Pass { source: &source, read_options: &read_options, kin, policy, job: &job, unknown: &unknown }
-        .run(&motion_options, SetUps::default(), &surveyed.choice, true, sink);
-    let (summary, survey) = predicted.map_err(render)?;
+        .run(&motion_options, SetUps::default(), (&surveyed.choice, None), true, sink);
+    let Passed { summary, survey, shape } = predicted.map_err(render)?;
     let survey = survey.unwrap_or_default();
     let warnings = warn_all(&source, &summary.warnings, strict);
     if strict && warnings > 0 {
@@ -417,7 +427,8 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         let mut produce = |sink: &mut dyn MotionSink| -> Result<(), PassError> {
             let mut checked =
                 Checked { travel: TravelCheck::new(&machine, setup.work_offset_at.as_ref()), error: None, next: sink };
-            pass.run(&motion_options, survey.set_ups.clone(), &surveyed.choice, false, &mut checked)?;
+            let shape = Some(shape.clone());
+            pass.run(&motion_options, survey.set_ups.clone(), (&surveyed.choice, shape), false, &mut checked)?;
             if let Some(e) = checked.error {
                 return Err(PassError::Motion(e));
             }
@@ -595,19 +606,25 @@ struct Pass<'a> {
 impl Pass<'_> {
     /// Reads the CL file through the stages, the blocks to `sink`, with `options` and the 3+2
     /// set-ups `set_ups`; with `surveying`, the steps are surveyed.
+    /// With `shape`, the linearization replays it (recorded by an earlier pass); without, it
+    /// records its own.
     fn run(
         &self,
         options: &postpro_motion::Options,
         set_ups: SetUps,
-        choice: &postpro_kin::Choice,
+        (choice, shape): (&postpro_kin::Choice, Option<Shape>),
         surveying: bool,
         sink: &mut dyn MotionSink,
-    ) -> Result<(postpro_motion::Summary, Option<Survey>), PassError> {
+    ) -> Result<Passed, PassError> {
         let (kin, policy) = (self.kin, self.policy);
+        let linearizer = match shape {
+            Some(shape) => Linearizer::replaying(policy, shape),
+            None => Linearizer::recording(policy),
+        };
         let mut motions = Motions {
             tolerance: policy.linearization_tolerance,
             placer: Placer::new(kin, policy, None, choice.clone()),
-            linearizer: Linearizer::new(policy),
+            linearizer,
             stretches: Stretches::starting(kin, self.job.stretch_starts()),
             targets: Vec::new(),
             steps: Collected::default(),
