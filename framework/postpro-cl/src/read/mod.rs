@@ -10,8 +10,9 @@
 //! Frames: the **part frame** is the frame in effect at the first motion (the NX `MSYS` of the
 //! first operation, or the file's own frame). Points written after a later `MSYS` or a CAMWorks
 //! `ROTABL` are transformed into it. SOLIDWORKS CAM writes its points in the world frame already
-//! (its `CSYS` maps world to the setup: the holes of the repeated set-ups in
-//! `manufacture3-top.apt` satisfy it), so `CSYS` is recorded and does not move points.
+//! (the holes of the repeated set-ups in `manufacture3-top.apt` are where their `CSYS` matrices
+//! put them), so `CSYS` does not move points; its third column is the set-up's tool axis, the
+//! modal axis of the 3-value GOTOs that follow.
 
 mod arcs;
 mod cycles;
@@ -1126,6 +1127,20 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 "expected 12 values: a 3×4 matrix, row by row",
             );
         };
+        // The rotation's third column is the set-up's tool axis, in the frame the points are
+        // written in: the modal axis of the 3-value GOTOs that follow (6-value GOTOs, TLAXIS and
+        // FROM still set their own).
+        let span = args_span(cx, st, 2, 11);
+        if Vector3::new(m[2], m[6], m[10]).norm() <= 1e-9 {
+            return self.error(
+                cx,
+                span,
+                "CSYS gives no tool axis: its third column is zero",
+                "expected the set-up's Z axis in values 3, 7 and 11",
+            );
+        }
+        let Some(axis) = self.direction(cx, span, m[2], m[6], m[10]) else { return };
+        self.axis = axis;
         let change = FrameChange { source: FrameSource::Csys(m), to_part: self.to_part };
         self.emit(cx.rec.span, ItemKind::Frame(Box::new(change)));
     }
