@@ -109,8 +109,11 @@ fn pass(
     sink: &mut impl ItemSink,
 ) -> (ProgramInfo, Vec<Diagnostic>, SenseVotes) {
     let mut b = Builder::new(src, sink, options, pre, sense);
-    for unit in Splitter::new(src) {
-        b.unit(unit);
+    let mut splitter = Splitter::new(src);
+    // The arguments of the plain GOTO lines the splitter reads on the way.
+    let mut goto = syntax::Args::new();
+    while let Some(unit) = splitter.next_with(&mut goto) {
+        b.unit(unit, &goto);
     }
     b.finish()
 }
@@ -276,9 +279,9 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     // ----- units of the file ---------------------------------------------------------------
 
-    fn unit(&mut self, unit: RawUnit<'_>) {
+    fn unit(&mut self, unit: RawUnit<'_>, goto: &[Arg<'_>]) {
         match unit {
-            RawUnit::Statement(rec) => self.record(&rec),
+            RawUnit::Statement(rec) => self.record(&rec, goto),
             RawUnit::Comment { span, text } => {
                 let kind = match comment_operation(text) {
                     Some(name) => ItemKind::OperationStart(name),
@@ -290,7 +293,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
     }
 
-    fn record(&mut self, rec: &RawRecord<'_>) {
+    /// A record; `goto`: its arguments when the splitter has read them (`rec.goto`).
+    fn record(&mut self, rec: &RawRecord<'_>, goto: &[Arg<'_>]) {
         self.info.statements += 1;
         if let Some(fini) = self.fini_at
             && !self.warned_after_fini
@@ -334,7 +338,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             ));
         }
         let mut args = syntax::Args::new();
-        let parsed = syntax::statement(&rec.text, &mut args);
+        let parsed = match rec.goto {
+            Some(major) => Ok(syntax::goto(&rec.text, major, goto)),
+            None => syntax::statement(&rec.text, &mut args),
+        };
         let stmt = match parsed {
             Ok(s) => s,
             Err(e) => {
@@ -397,7 +404,12 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             && let Some(a) = st.args().iter().find(|a| matches!(a.value, Value::Num(v) if (v * self.scale).is_nan() || (v * self.scale).abs() > MAX_MAGNITUDE))
         {
             let span = arg_span(cx, a);
-            return self.error(cx, span, "number out of range", "expected a number within ±1e9 (mm, mm/min, s, rpm, rad)");
+            return self.error(
+                cx,
+                span,
+                "number out of range",
+                "expected a number within ±1e9 (mm, mm/min, s, rpm, rad)",
+            );
         }
         match st.word {
             Word::Goto => self.goto(cx, st),
@@ -480,23 +492,26 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         if n < args.len() {
             self.warn(cx, arg_span(cx, &args[n]), "trailing comma", "empty argument ignored", None);
         }
-        let mut out = smallvec::SmallVec::new();
-        for a in &args[..n] {
-            match a.value {
-                // Magnitudes were checked for every interpreted statement in `statement`.
-                Value::Num(v) => out.push(v),
-                _ => {
-                    self.error(
-                        cx,
-                        arg_span(cx, a),
-                        format!("{} expects numbers", cx.word_name()),
-                        format!("expected a number ({form})"),
-                    );
-                    return None;
-                }
-            }
+        if let Some(a) = args[..n].iter().find(|a| !matches!(a.value, Value::Num(_))) {
+            self.error(
+                cx,
+                arg_span(cx, a),
+                format!("{} expects numbers", cx.word_name()),
+                format!("expected a number ({form})"),
+            );
+            return None;
         }
-        Some(out)
+        // Magnitudes were checked for every interpreted statement in `statement`.
+        let value = |a: &Arg<'_>| if let Value::Num(v) = a.value { v } else { f64::NAN };
+        if n <= 8 {
+            // Up to eight (every GOTO): filled in place, no growth checks.
+            let mut buf = [0.0; 8];
+            for (slot, a) in buf.iter_mut().zip(&args[..n]) {
+                *slot = value(a);
+            }
+            return Some(smallvec::SmallVec::from_buf_and_len(buf, n));
+        }
+        Some(args[..n].iter().map(value).collect())
     }
 
     /// APT source refers to named geometry: `goto/setpt2`, `goto/pb,-1,0,1`, `tlaxis/atangl,2,45`.
@@ -512,17 +527,21 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn direction(&mut self, cx: &Ctx<'_>, span: Span, i: f64, j: f64, k: f64) -> Option<ToolAxis> {
+        self.direction_at(cx, || span, i, j, k)
+    }
+
+    /// [`Self::direction`] with the span computed only for a diagnostic.
+    fn direction_at(&mut self, cx: &Ctx<'_>, span: impl FnOnce() -> Span, i: f64, j: f64, k: f64) -> Option<ToolAxis> {
         let v = Vector3::new(i, j, k);
-        let norm = v.norm();
+        let (unit, norm) = Unit::new_and_get(v);
         if norm.is_nan() || norm <= 1e-9 {
-            self.error(cx, span, "zero direction vector", "expected a unit vector (i,j,k)");
+            self.error(cx, span(), "zero direction vector", "expected a unit vector (i,j,k)");
             return None;
         }
         if (norm - 1.0).abs() > UNIT_TOLERANCE {
-            self.warn(cx, span, format!("direction vector has length {norm:.6}"), "normalised to unit length", None);
+            self.warn(cx, span(), format!("direction vector has length {norm:.6}"), "normalised to unit length", None);
         }
-        let v = if self.identity_frame { v } else { self.to_part.rotation * v };
-        Some(Unit::new_normalize(v))
+        Some(if self.identity_frame { unit } else { Unit::new_normalize(self.to_part.rotation * v) })
     }
 
     fn fix_part_frame(&mut self) {
@@ -589,8 +608,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
         self.fix_part_frame();
         if v.len() == 6 {
-            let span = args_span(cx, st, 3, 6);
-            self.axis = self.direction(cx, span, v[3], v[4], v[5])?;
+            self.axis = self.direction_at(cx, || args_span(cx, st, 3, 6), v[3], v[4], v[5])?;
         }
         Some(self.point(v[0], v[1], v[2]))
     }
