@@ -285,7 +285,7 @@ fn load8(b: &[u8], k: usize) -> Option<u64> {
 /// before the point and seven after, read with one 8-byte load for each part: its value and end,
 /// as [`plain_decimal`] gives them (at most 14 digits: the exact fast path). `None` when it is
 /// not that (more digits, an exponent, fewer than eight bytes left to load): not decided.
-#[inline]
+#[inline(always)]
 fn short_decimal(b: &[u8], k: usize) -> Option<(f64, usize)> {
     let first = *b.get(k)?;
     let start = k + usize::from(first == b'-' || first == b'+');
@@ -294,25 +294,29 @@ fn short_decimal(b: &[u8], k: usize) -> Option<(f64, usize)> {
     if whole == 8 {
         return None;
     }
-    let mut mantissa = if whole > 0 { first_digits(chunk, whole) } else { 0 };
-    let mut end = start + whole;
-    let mut decimals = 0;
     // The byte after the digits, from the chunk.
-    let mut next = (chunk >> (8 * whole)) as u8;
-    if next == b'.' {
-        let fraction = load8(b, end + 1)?;
-        decimals = leading_digits(fraction);
-        if decimals == 8 || whole + decimals == 0 {
+    let after = (chunk >> (8 * whole)) as u8;
+    let (mantissa, decimals, end, next) = if after == b'.' {
+        let fraction = load8(b, start + whole + 1)?;
+        let decimals = leading_digits(fraction);
+        let digits = whole + decimals;
+        if decimals == 8 || digits == 0 {
             return None;
         }
-        if decimals > 0 {
-            mantissa = mantissa * POW10_U64[decimals] + first_digits(fraction, decimals);
-        }
-        end += 1 + decimals;
-        next = (fraction >> (8 * decimals)) as u8;
+        let mantissa = if digits <= 8 {
+            // The whole digits, then the fraction's above them: one conversion of all of them.
+            let whole_values = chunk.wrapping_sub(ZEROS) & ((1 << (8 * whole)) - 1);
+            let values = whole_values | (fraction.wrapping_sub(ZEROS) << (8 * whole));
+            eight_digits(values << (8 * (8 - digits)))
+        } else {
+            first_digits(chunk, whole) * POW10_U64[decimals] + first_digits(fraction, decimals)
+        };
+        (mantissa, decimals, start + digits + 1, (fraction >> (8 * decimals)) as u8)
     } else if whole == 0 {
         return None;
-    }
+    } else {
+        (first_digits(chunk, whole), 0, start + whole, after)
+    };
     if matches!(next, b'e' | b'E' | b'd' | b'D') {
         return None;
     }
@@ -428,9 +432,10 @@ fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement
     // Slash-less free text: `PARTNO PART TO BE MACHINED`, `PPRINT TOOL: D 2,5`.
     let first_token_len = memchr::memchr3(b' ', b'\t', b'/', body_text.as_bytes()).unwrap_or(body_text.len());
     let first = &body_text[..first_token_len];
-    if Word::from_major(first).is_text() && !body_text[first_token_len..].trim_start().starts_with('/') {
+    let first_word = Word::from_major(first);
+    if first_word.is_text() && !body_text[first_token_len..].trim_start().starts_with('/') {
         let rest = &body_text[first_token_len..];
-        return Ok(Statement { major: first, word: Word::from_major(first), body: Body::Text(rest.trim()), issues });
+        return Ok(Statement { major: first, word: first_word, body: Body::Text(rest.trim()), issues });
     }
 
     let (major, after) = match memchr::memchr(b'/', body_text.as_bytes()) {
@@ -441,7 +446,8 @@ fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement
     if major.is_empty() {
         return Err(SyntaxError { at: start, expected: "a major word before `/`" });
     }
-    let word = Word::from_major(major);
+    // Usually the first token is the major word (`PAINT/…`): classified once.
+    let word = if major.len() == first.len() { first_word } else { Word::from_major(major) };
     let body = match after {
         None => Body::None,
         Some(k) if word.is_text() => Body::Text(body_text[k..].trim()),

@@ -594,7 +594,25 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     /// `form` = `WORD/x,y,z[,i,j,k]`: the point in the part frame; a tool axis given becomes the
     /// modal one. `None` after a diagnostic.
     fn position_args(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, form: &str) -> Option<Point3<f64>> {
-        let v = self.numbers(cx, st, form)?;
+        // The usual 3 or 6 numbers are copied straight; anything else goes through `numbers`
+        // (trailing commas, words).
+        let args = st.args();
+        let mut plain = [0.0; 6];
+        let all_numbers = args.len() <= 6
+            && args.iter().zip(plain.iter_mut()).all(|(a, slot)| match a.value {
+                Value::Num(v) => {
+                    *slot = v;
+                    true
+                }
+                _ => false,
+            });
+        let numbers;
+        let v: &[f64] = if all_numbers {
+            &plain[..args.len()]
+        } else {
+            numbers = self.numbers(cx, st, form)?;
+            &numbers
+        };
         if v.len() != 3 && v.len() != 6 {
             let word = form.split('/').next().unwrap_or(form);
             let span = body_span(cx, st);
@@ -1278,8 +1296,13 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             Body::None => String::new(),
             _ => cx.rec.text.split_once('/').map_or(String::new(), |(_, a)| a.trim().to_string()),
         };
-        let entry = self.info.uninterpreted.entry(word.clone()).or_insert(WordUse { count: 0, first: span, unknown });
-        entry.count += 1;
+        // Counted without cloning the word for each record (a BTreeMap's entry takes its key).
+        match self.info.uninterpreted.get_mut(&word) {
+            Some(entry) => entry.count += 1,
+            None => {
+                self.info.uninterpreted.insert(word.clone(), WordUse { count: 1, first: span, unknown });
+            }
+        }
         self.emit(span, ItemKind::Record(Record { word, args }));
     }
 
