@@ -64,15 +64,21 @@ pub(super) fn prescan(src: &str) -> Prescan {
             cam.comment(&src[start + lead..line_end]);
             continue;
         }
+        let upper = first.to_ascii_uppercase();
+        let wanted_units = units.is_none() && (upper == b'U' || upper == b'F' && feed_hint.is_none());
+        let wanted = wanted_units || matches!(upper, b'B' | b'C' | b'M' | b'O' | b'P' | b'R' | b'T');
+        // Past the header, a line that starts with a character no word of interest (nor the
+        // listing footer) starts with is passed at once: most lines, GOTOs.
+        if seen_statement && !wanted && first.is_ascii_graphic() {
+            continue;
+        }
         let line = &src[start..line_end];
         if is_listing_line(line, seen_statement) {
             cam.vote(CamSystem::SiemensNx);
             continue;
         }
         seen_statement = true;
-        let first = first.to_ascii_uppercase();
-        let wanted_units = units.is_none() && (first == b'U' || first == b'F' && feed_hint.is_none());
-        if !wanted_units && !matches!(first, b'B' | b'C' | b'M' | b'O' | b'P' | b'R' | b'T') {
+        if !wanted {
             continue;
         }
         let Some(seen) = classify(src, start, line) else { continue };
