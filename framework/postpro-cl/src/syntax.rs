@@ -492,6 +492,11 @@ pub(crate) fn goto_args(b: &[u8], from: usize, line: bool, buf: &mut Args<'_>) -
     loop {
         let (value, end) = short_decimal(b, k).or_else(|| number_at(b, k))?;
         buf.push(Arg { value: Value::Num(value), start: (k - from) as u32, end: (end - from) as u32 });
+        // Mostly a comma right after the number, and the next number right after it.
+        if b.get(end) == Some(&b',') && !matches!(b.get(end + 1), Some(b' ' | b'\t')) {
+            k = end + 1;
+            continue;
+        }
         k = skip(end);
         match b.get(k) {
             None => return Some((major - from, k)),
