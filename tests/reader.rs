@@ -520,6 +520,34 @@ fn camworks_rotabl_points_in_the_part_frame() {
     assert_eq!(m[1].motion, feed(187.165839));
 }
 
+/// SOLIDWORKS CAM: each `CSYS` sets the tool axis of its set-up (the matrix's third column) for
+/// the 3-value GOTOs and the holes that follow; the points are not moved.
+#[test]
+fn solidworks_csys_sets_its_set_ups_tool_axis() {
+    let path = read_clean("ok_solidworks_csys_axis.cl");
+    assert_eq!(path.info.cam_system, Some(CamSystem::SolidworksCam));
+    let frames: Vec<&FrameSource> = path
+        .items
+        .iter()
+        .filter_map(|i| if let ItemKind::Frame(f) = &i.kind { Some(&f.source) } else { None })
+        .collect();
+    assert_eq!(frames.len(), 2, "{frames:?}");
+    assert!(frames.iter().all(|f| matches!(f, FrameSource::Csys(_))));
+    let m = moves(&path);
+    assert_eq!(m.len(), 7);
+    // The side face: +X, the points as written.
+    for mv in &m[..4] {
+        assert_near(xyz(&*mv.axis), [1.0, 0.0, 0.0], 1e-12);
+    }
+    assert_near(xyz(&m[1].to), [100.0, 20.0, -30.0], 1e-12);
+    // From the top: +Z again, the hole too.
+    for mv in &m[4..] {
+        assert_near(xyz(&*mv.axis), [0.0, 0.0, 1.0], 1e-12);
+    }
+    assert_eq!(m[5].kind, MoveKind::Hole);
+    assert_near(xyz(&m[5].to), [10.0, 10.0, 0.0], 1e-12);
+}
+
 /// NX: the part frame is the MSYS of the first operation; the points and tool axes of the
 /// second operation are transformed from its own MSYS into it.
 #[test]

@@ -683,8 +683,9 @@ pub enum FrameSource {
     Msys,
     /// CAMWorks `ROTABL`: an incremental table rotation (axis letter, angle in radians).
     Rotabl(char, f64),
-    /// SOLIDWORKS CAM `CSYS`: the setup frame (world to setup, row-major 3×4). The points are
-    /// written in the world frame already, so the points are not moved.
+    /// SOLIDWORKS CAM `CSYS`: the set-up frame (row-major 3×4, as written; the rotation's columns
+    /// are the set-up's axes in the world frame). The points are written in the world frame
+    /// already, so the points are not moved; the third column is the set-up's tool axis.
     Csys([f64; 12]),
 }
 

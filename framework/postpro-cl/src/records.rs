@@ -15,6 +15,7 @@
 use std::borrow::Cow;
 
 use crate::span::Span;
+use crate::syntax::{self, Args};
 
 /// One logical unit of the file.
 #[derive(Debug)]
@@ -43,6 +44,9 @@ pub(crate) struct Record<'a> {
     pub(crate) open_quote: bool,
     /// The file ended while the record asked for a continuation line.
     pub(crate) dangling_continuation: bool,
+    /// A plain `GOTO` line whose arguments the splitter has read into the caller's buffer
+    /// ([`Splitter::next_with`]): where `GOTO` starts in `text`.
+    pub(crate) goto: Option<usize>,
 }
 
 #[derive(Debug)]
@@ -101,6 +105,36 @@ struct Lexed {
 impl<'a> Splitter<'a> {
     pub(crate) fn new(src: &'a str) -> Self {
         Splitter { src, pos: 0, seen_statement: false }
+    }
+
+    /// The next unit, like [`Iterator::next`], except that a physical line that is a whole plain
+    /// `GOTO/x,y,z[,i,j,k]` statement (numbers only, no `$`, no quote: most of a CL file) is read
+    /// in one go, its arguments into `goto` ([`syntax::goto_args`]): the line's end is where its
+    /// last number ends, so the line is scanned once. Any other line goes the general way.
+    pub(crate) fn next_with(&mut self, goto: &mut Args<'_>) -> Option<Unit<'a>> {
+        // Before the first statement a line may be an NX listing line (`Key<TAB>value`).
+        if self.seen_statement {
+            goto.clear();
+            let start = self.pos;
+            let bytes = self.src.as_bytes();
+            if let Some((major, end)) = syntax::goto_args(bytes, start, true, goto) {
+                self.pos = match bytes.get(end) {
+                    Some(b'\r') if bytes.get(end + 1) == Some(&b'\n') => end + 2,
+                    Some(_) => end + 1,
+                    None => end,
+                };
+                return Some(Unit::Statement(Record {
+                    text: Cow::Borrowed(&self.src[start..end]),
+                    pieces: Pieces { first: start as u32, more: Vec::new() },
+                    span: Span::new(start, end),
+                    ignored: None,
+                    open_quote: false,
+                    dangling_continuation: false,
+                    goto: Some(major),
+                }));
+            }
+        }
+        self.next()
     }
 
     /// A splitter that starts at a line start (used by the unit pre-scan).
@@ -189,6 +223,7 @@ impl<'a> Splitter<'a> {
                 ignored,
                 open_quote: lexed.in_quote,
                 dangling_continuation: false,
+                goto: None,
             };
         }
         let mut text = String::from(first_text);
@@ -232,6 +267,7 @@ impl<'a> Splitter<'a> {
             ignored,
             open_quote: in_quote,
             dangling_continuation: dangling,
+            goto: None,
         }
     }
 }
@@ -317,9 +353,16 @@ fn ends_with_single_dollar(b: &[u8]) -> bool {
 /// NX Information-window lines: `Key<TAB>value` header lines before the first statement, and
 /// the `Tool Path Listing has N lines.` footer.
 pub(crate) fn is_listing_line(line: &str, seen_statement: bool) -> bool {
-    // Past the header only the footer can occur: a line that starts with `Tool`.
-    if seen_statement && !line.trim_start().starts_with("Tool Path Listing") {
-        return false;
+    // Past the header only the footer can occur: a line that starts with `Tool` (a quick look
+    // at the first byte that is no blank first; any other white space is trimmed below).
+    if seen_statement {
+        let first = line.bytes().find(|&c| c != b' ' && c != b'\t');
+        if first.is_some_and(|c| c.is_ascii_graphic() && c != b'T') {
+            return false;
+        }
+        if !line.trim_start().starts_with("Tool Path Listing") {
+            return false;
+        }
     }
     let t = line.trim();
     if let Some(rest) = t.strip_prefix("Tool Path Listing has ") {
@@ -406,6 +449,78 @@ mod tests {
         let Some(Unit::Statement(r)) = Splitter::new("GOTO/1,2,$ junk\n3").next() else { panic!("no record") };
         assert_eq!(r.text, "GOTO/1,2,3");
         assert!(r.ignored.is_some());
+    }
+
+    /// The units of `src` through [`Splitter::next_with`], each statement parsed as the reader
+    /// does, against the general way: record texts, spans and arguments (numbers by their bits).
+    fn both_ways(src: &str) -> (Vec<String>, Vec<String>) {
+        let describe = |rec: &Record<'_>, st: Result<syntax::Statement<'_>, syntax::SyntaxError>| {
+            let st = st.map(|st| {
+                let args: Vec<_> = st
+                    .args()
+                    .iter()
+                    .map(|a| match a.value {
+                        syntax::Value::Num(n) => format!("{:#x}@{}..{}", n.to_bits(), a.start, a.end),
+                        v => format!("{v:?}@{}..{}", a.start, a.end),
+                    })
+                    .collect();
+                (st.major, st.word, args, st.issues.len())
+            });
+            format!(
+                "{:?} {:?} {:?} {:?} {} {}",
+                rec.text, rec.span, rec.ignored, st, rec.open_quote, rec.dangling_continuation
+            )
+        };
+        let mut fast = Vec::new();
+        let mut goto = Args::new();
+        let mut splitter = Splitter::new(src);
+        while let Some(unit) = splitter.next_with(&mut goto) {
+            fast.push(match unit {
+                Unit::Statement(rec) => {
+                    let mut buf = Args::new();
+                    let st = match rec.goto {
+                        Some(major) => Ok(syntax::goto(&rec.text, major, &goto)),
+                        None => syntax::statement(&rec.text, &mut buf),
+                    };
+                    describe(&rec, st)
+                }
+                other => format!("{other:?}"),
+            });
+        }
+        let slow = Splitter::new(src)
+            .map(|unit| match unit {
+                Unit::Statement(rec) => describe(&rec, syntax::statement(&rec.text, &mut Args::new())),
+                other => format!("{other:?}"),
+            })
+            .collect();
+        (fast, slow)
+    }
+
+    #[test]
+    fn plain_goto_lines_read_in_one_go_as_the_general_way() {
+        let src = "TOOL PATH/A,TOOL,B\nGOTO/1,2,3\r\nGOTO / -1.5 , 2. ,3  \rGOTO/1,2,3,$\n4,5,6\ngoto/.5,1E3,2D1\nGOTO/1,2,3 $$ c\nGOTO/1,,3\nGOTO/1,2,3";
+        let (fast, slow) = both_ways(src);
+        assert_eq!(fast, slow);
+        assert_eq!(fast.len(), 8);
+    }
+
+    proptest::proptest! {
+        /// Lines of GOTOs and their near misses read the same both ways.
+        #[test]
+        fn plain_goto_lines_read_as_the_general_way(
+            lines in proptest::collection::vec(
+                "[ \t]?(GOTO|goto|TLAXIS|N1 GOTO)[ \t]?/[ \t]?([+-]?[0-9]{0,10}(\\.[0-9]{0,9})?([eEdD][+-]?[0-9])?[ \t]?[,$'x(]?){0,7}( \\$\\$ c|\\$)?",
+                0..8,
+            ),
+            ends in proptest::collection::vec("(\n|\r\n|\r)", 8),
+        ) {
+            let src: String = lines.iter().zip(&ends).map(|(l, e)| format!("{l}{e}")).collect();
+            let (fast, slow) = both_ways(&src);
+            proptest::prop_assert_eq!(fast, slow);
+            let src = lines.join("\n");
+            let (fast, slow) = both_ways(&src);
+            proptest::prop_assert_eq!(fast, slow);
+        }
     }
 
     #[test]

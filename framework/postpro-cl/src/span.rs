@@ -112,6 +112,29 @@ impl Source {
         LineCol { line: line + 1, column }
     }
 
+    /// [`Source::line_col`] by one scan of the text up to `offset`, without building the line
+    /// index: for a single look-up when no diagnostic is shown (the summary's units origin).
+    pub(crate) fn line_col_scan(&self, offset: usize) -> LineCol {
+        if self.line_starts.get().is_some() {
+            return self.line_col(offset);
+        }
+        let offset = offset.min(self.text.len());
+        let bytes = &self.text.as_bytes()[..offset];
+        let (mut line, mut start, mut pos) = (1, 0, 0);
+        while let Some(k) = memchr::memchr2(b'\n', b'\r', &bytes[pos..]) {
+            let i = pos + k;
+            // A `\r\n` whose `\n` is at `offset` ends the line before it too.
+            pos = if bytes[i] == b'\r' && self.text.as_bytes().get(i + 1) == Some(&b'\n') { i + 2 } else { i + 1 };
+            if pos > offset {
+                break;
+            }
+            line += 1;
+            start = pos;
+        }
+        let column = self.text.get(start..offset).map_or(offset - start, |s| s.chars().count()) + 1;
+        LineCol { line, column }
+    }
+
     /// `name:line:column` of a byte offset.
     pub fn location(&self, offset: usize) -> String {
         let lc = self.line_col(offset);
@@ -142,6 +165,15 @@ mod tests {
         assert_eq!(src.line_col(7), LineCol { line: 3, column: 1 });
         assert_eq!(src.line_col(10), LineCol { line: 4, column: 1 });
         assert_eq!(src.location(11), "t:4:2");
+    }
+
+    #[test]
+    fn line_col_by_a_scan_is_line_col() {
+        let text = "ab\ncd\r\nef\rgh\r\n\n\u{e9}x";
+        for offset in 0..=text.len() + 1 {
+            let scanned = Source::new("t", text).line_col_scan(offset);
+            assert_eq!(scanned, Source::new("t", text).line_col(offset), "offset {offset}");
+        }
     }
 
     #[test]

@@ -344,7 +344,7 @@ impl Accumulator {
 
     fn finish(self, source: &Source, info: &ProgramInfo, diagnostics: &[Diagnostic]) -> Summary {
         let at = |span: crate::span::Span| {
-            let lc = source.line_col(span.start as usize);
+            let lc = source.line_col_scan(span.start as usize);
             Some(format!("{}:{}", lc.line, lc.column))
         };
         let (origin, at) = match info.units.origin {

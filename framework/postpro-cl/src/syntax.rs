@@ -130,15 +130,37 @@ fn is_delimiter(c: char) -> bool {
 /// A number as CAM systems write it: `25.`, `.005`, `-0.000`, `1.5E-3`, `.5773503D+00`.
 fn number(i: &str) -> PResult<'_, f64> {
     let b = i.as_bytes();
-    let digits_at = usize::from(matches!(b.first(), Some(b'+' | b'-')));
-    match b.get(digits_at) {
-        Some(c) if c.is_ascii_digit() => {}
-        Some(b'.') if b.get(digits_at + 1).is_some_and(u8::is_ascii_digit) => {}
-        _ => return fail(i, "a number"),
-    }
-    let Ok((mut value, mut used)) = fast_float2::parse_partial::<f64, _>(b) else {
+    let Some((value, used)) = number_at(b, 0) else {
         return fail(i, "a number");
     };
+    // A number must end at a delimiter, otherwise the token is a word such as `1STPECK`
+    // (a byte ≥ 0x80 starts a character that is no delimiter).
+    match b.get(used) {
+        Some(&c) if !c.is_ascii() || !is_delimiter(char::from(c)) => fail(i, "a number"),
+        _ => Ok((&i[used..], value)),
+    }
+}
+
+/// The number that starts at `b[k]`, if one does, and where it ends; what follows it is not
+/// looked at (the caller checks for a delimiter).
+fn number_at(b: &[u8], k: usize) -> Option<(f64, usize)> {
+    if let Some(short) = short_decimal(b, k) {
+        return Some(short);
+    }
+    let s = b.get(k..)?;
+    let digits_at = usize::from(matches!(s.first(), Some(b'+' | b'-')));
+    match s.get(digits_at) {
+        Some(c) if c.is_ascii_digit() => {}
+        Some(b'.') if s.get(digits_at + 1).is_some_and(u8::is_ascii_digit) => {}
+        _ => return None,
+    }
+    let (value, used) = plain_decimal(s).or_else(|| general_number(s))?;
+    Some((value, k + used))
+}
+
+/// Any number `fast_float2` reads (exponents, many digits), and the Fortran `D` exponent.
+fn general_number(b: &[u8]) -> Option<(f64, usize)> {
+    let (mut value, mut used) = fast_float2::parse_partial::<f64, _>(b).ok()?;
     // Fortran `D` exponent: rare, so re-parse through a small buffer.
     if matches!(b.get(used), Some(b'D' | b'd')) {
         let exp_digits = used + 1 + usize::from(matches!(b.get(used + 1), Some(b'+' | b'-')));
@@ -152,11 +174,167 @@ fn number(i: &str) -> PResult<'_, f64> {
             }
         }
     }
-    // A number must end at a delimiter, otherwise the token is a word such as `1STPECK`.
-    match i[used..].chars().next() {
-        Some(c) if !is_delimiter(c) => fail(i, "a number"),
-        _ => Ok((&i[used..], value)),
+    Some((value, used))
+}
+
+/// Exact powers of ten as `f64` (10²² is the largest).
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
+    1e21, 1e22,
+];
+
+/// Powers of ten as `u64`, up to 10¹⁹.
+const POW10_U64: [u64; 20] = {
+    let mut p = [1u64; 20];
+    let mut k = 1;
+    while k < 20 {
+        p[k] = p[k - 1] * 10;
+        k += 1;
     }
+    p
+};
+
+/// The most digits [`plain_decimal`] reads: their value stays below 2⁶⁴.
+const MAX_PLAIN_DIGITS: usize = 19;
+
+/// The number CAM systems write almost always, `[+-]digits[.digits]` without an exponent, with
+/// at most 19 digits and a value of at most 2⁵³ units of its last digit: its value and length.
+/// Both the digits and the power of ten are then exact doubles, so one correctly rounded
+/// division gives the correctly rounded value (Clinger's fast path), the same double the general
+/// parser returns. `None` for anything else (an exponent, more digits), which the general parser
+/// reads. The caller has checked that a digit comes first, or a point and a digit.
+fn plain_decimal(b: &[u8]) -> Option<(f64, usize)> {
+    let negative = b.first() == Some(&b'-');
+    let mut k = usize::from(matches!(b.first(), Some(b'+' | b'-')));
+    let (mut mantissa, digits) = digit_run(b.get(k..)?)?;
+    k += digits;
+    let mut decimals = 0;
+    if b.get(k) == Some(&b'.') {
+        k += 1;
+        let (fraction, n) = digit_run(b.get(k..)?)?;
+        if digits + n > MAX_PLAIN_DIGITS {
+            return None;
+        }
+        // Below 10¹⁹: no overflow.
+        mantissa = mantissa * POW10_U64[n] + fraction;
+        decimals = n;
+        k += n;
+    }
+    if mantissa > 1 << 53 || matches!(b.get(k), Some(b'e' | b'E' | b'd' | b'D')) {
+        return None;
+    }
+    // At most 19 decimals: within the exact powers of ten.
+    let magnitude = mantissa as f64 / POW10[decimals];
+    Some((if negative { -magnitude } else { magnitude }, k))
+}
+
+/// The run of ASCII digits that starts `b`: its value and length, eight digits at a time (SWAR);
+/// `None` past [`MAX_PLAIN_DIGITS`] digits.
+fn digit_run(b: &[u8]) -> Option<(u64, usize)> {
+    let mut value: u64 = 0;
+    let mut n = 0;
+    loop {
+        let Some(chunk) = load8(b, n) else {
+            // Fewer than eight bytes left: one digit at a time.
+            for &c in b.get(n..)? {
+                if !c.is_ascii_digit() {
+                    break;
+                }
+                value = value.wrapping_mul(10).wrapping_add(u64::from(c - b'0'));
+                n += 1;
+            }
+            return (n <= MAX_PLAIN_DIGITS).then_some((value, n));
+        };
+        let count = leading_digits(chunk);
+        if count > 0 {
+            value = value.wrapping_mul(POW10_U64[count]).wrapping_add(first_digits(chunk, count));
+        }
+        n += count;
+        if n > MAX_PLAIN_DIGITS {
+            return None;
+        }
+        if count < 8 {
+            return Some((value, n));
+        }
+    }
+}
+
+/// `ZEROS` subtracted from eight ASCII digits leaves their values.
+const ZEROS: u64 = 0x3030_3030_3030_3030;
+
+/// How many of the eight bytes of `chunk` (the first in the lowest byte) are ASCII digits before
+/// the first that is not: the high bit of each byte below `0` (the subtraction borrows) or above
+/// `9` (the addition reaches 0x80) is set. Borrows and carries only move to later bytes, so the
+/// first byte flagged is the first non-digit.
+fn leading_digits(chunk: u64) -> usize {
+    let flags = (chunk.wrapping_sub(ZEROS) | chunk.wrapping_add(0x4646_4646_4646_4646)) & 0x8080_8080_8080_8080;
+    (flags.trailing_zeros() / 8) as usize
+}
+
+/// The value of the first `n` digits of `chunk` (1 ≤ `n` ≤ 8, all digits).
+fn first_digits(chunk: u64, n: usize) -> u64 {
+    eight_digits(chunk.wrapping_sub(ZEROS) << (8 * (8 - n)))
+}
+
+/// The eight bytes of `b` from `k`, the first in the lowest byte, when there are eight.
+fn load8(b: &[u8], k: usize) -> Option<u64> {
+    Some(u64::from_le_bytes(b.get(k..k + 8)?.try_into().ok()?))
+}
+
+/// The short number that nearly every CL value is, `[+-]ddd[.ddd]` with at most seven digits
+/// before the point and seven after, read with one 8-byte load for each part: its value and end,
+/// as [`plain_decimal`] gives them (at most 14 digits: the exact fast path). `None` when it is
+/// not that (more digits, an exponent, fewer than eight bytes left to load): not decided.
+#[inline(always)]
+fn short_decimal(b: &[u8], k: usize) -> Option<(f64, usize)> {
+    let first = *b.get(k)?;
+    let start = k + usize::from(first == b'-' || first == b'+');
+    let chunk = load8(b, start)?;
+    let whole = leading_digits(chunk);
+    if whole == 8 {
+        return None;
+    }
+    // The byte after the digits, from the chunk.
+    let after = (chunk >> (8 * whole)) as u8;
+    let (mantissa, decimals, end, next) = if after == b'.' {
+        let fraction = load8(b, start + whole + 1)?;
+        let decimals = leading_digits(fraction);
+        let digits = whole + decimals;
+        if decimals == 8 || digits == 0 {
+            return None;
+        }
+        let mantissa = if digits <= 8 {
+            // The whole digits, then the fraction's above them: one conversion of all of them.
+            let whole_values = chunk.wrapping_sub(ZEROS) & ((1 << (8 * whole)) - 1);
+            let values = whole_values | (fraction.wrapping_sub(ZEROS) << (8 * whole));
+            eight_digits(values << (8 * (8 - digits)))
+        } else {
+            first_digits(chunk, whole) * POW10_U64[decimals] + first_digits(fraction, decimals)
+        };
+        (mantissa, decimals, start + digits + 1, (fraction >> (8 * decimals)) as u8)
+    } else if whole == 0 {
+        return None;
+    } else {
+        (first_digits(chunk, whole), 0, start + whole, after)
+    };
+    if matches!(next, b'e' | b'E' | b'd' | b'D') {
+        return None;
+    }
+    // Below 10¹⁴: the signed conversion is exact and one instruction.
+    let magnitude = mantissa as i64 as f64 / POW10[decimals];
+    Some((if first == b'-' { -magnitude } else { magnitude }, end))
+}
+
+/// The value of eight digits given as byte values 0–9, the first digit in the lowest byte.
+fn eight_digits(v: u64) -> u64 {
+    const MASK: u64 = 0x0000_00FF_0000_00FF;
+    const MUL1: u64 = 100 + (1_000_000 << 32);
+    const MUL2: u64 = 1 + (10_000 << 32);
+    // Pairs of digits, then groups of four, then the eight.
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    let high = (v & MASK).wrapping_mul(MUL1);
+    let low = ((v >> 16) & MASK).wrapping_mul(MUL2);
+    u64::from((high.wrapping_add(low) >> 32) as u32)
 }
 
 fn word(i: &str) -> PResult<'_, &str> {
@@ -227,6 +405,15 @@ fn args<'a>(i: &'a str, base: usize, out: &mut Args<'a>, issues: &mut SmallVec<[
 /// Parses one record text into a statement; the arguments go into `buf` (cleared first).
 pub(crate) fn statement<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement<'b>, SyntaxError> {
     buf.clear();
+    if let Some((major, _)) = goto_args(text.as_bytes(), 0, false, buf) {
+        return Ok(goto(text, major, buf));
+    }
+    buf.clear();
+    grammar(text, buf)
+}
+
+/// The statement grammar itself (every record the GOTO fast path does not take).
+fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement<'b>, SyntaxError> {
     let err = |e: nom::Err<PError<'_>>| match e {
         nom::Err::Error(e) | nom::Err::Failure(e) => {
             SyntaxError { at: text.len() - e.input.len(), expected: e.expected }
@@ -245,9 +432,10 @@ pub(crate) fn statement<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Res
     // Slash-less free text: `PARTNO PART TO BE MACHINED`, `PPRINT TOOL: D 2,5`.
     let first_token_len = memchr::memchr3(b' ', b'\t', b'/', body_text.as_bytes()).unwrap_or(body_text.len());
     let first = &body_text[..first_token_len];
-    if Word::from_major(first).is_text() && !body_text[first_token_len..].trim_start().starts_with('/') {
+    let first_word = Word::from_major(first);
+    if first_word.is_text() && !body_text[first_token_len..].trim_start().starts_with('/') {
         let rest = &body_text[first_token_len..];
-        return Ok(Statement { major: first, word: Word::from_major(first), body: Body::Text(rest.trim()), issues });
+        return Ok(Statement { major: first, word: first_word, body: Body::Text(rest.trim()), issues });
     }
 
     let (major, after) = match memchr::memchr(b'/', body_text.as_bytes()) {
@@ -258,7 +446,8 @@ pub(crate) fn statement<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Res
     if major.is_empty() {
         return Err(SyntaxError { at: start, expected: "a major word before `/`" });
     }
-    let word = Word::from_major(major);
+    // Usually the first token is the major word (`PAINT/…`): classified once.
+    let word = if major.len() == first.len() { first_word } else { Word::from_major(major) };
     let body = match after {
         None => Body::None,
         Some(k) if word.is_text() => Body::Text(body_text[k..].trim()),
@@ -269,6 +458,53 @@ pub(crate) fn statement<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Res
         }
     };
     Ok(Statement { major, word, body, issues })
+}
+
+/// The statement of a record whose arguments [`goto_args`] has read: `GOTO` at `major` in `text`.
+pub(crate) fn goto<'b>(text: &'b str, major: usize, args: &'b [Arg<'b>]) -> Statement<'b> {
+    let major = text.get(major..major + 4).unwrap_or("GOTO");
+    Statement { major, word: Word::Goto, body: Body::Args(args), issues: SmallVec::new() }
+}
+
+/// The dominant statement, `GOTO/x,y,z[,i,j,k]` with numbers only (blanks around the slash and
+/// the commas allowed), read from `b[from]` straight into `buf`: the arguments, offsets (from
+/// `from`) and numbers the grammar would give, without its combinators. It ends at the end of `b`
+/// or, when `line` is set, at the first line end (`\n` or `\r`), so that a whole physical line
+/// can be read in one go. Returns where `GOTO` starts and where the statement ends. `None` for
+/// anything else (a word, an empty argument, a missing comma, a `$`, a sequence number…),
+/// which the record splitter and the grammar then read; `buf` may hold a part of the arguments.
+pub(crate) fn goto_args(b: &[u8], from: usize, line: bool, buf: &mut Args<'_>) -> Option<(usize, usize)> {
+    let skip = |mut k: usize| {
+        while matches!(b.get(k), Some(b' ' | b'\t')) {
+            k += 1;
+        }
+        k
+    };
+    let major = skip(from);
+    if !b.get(major..major + 4)?.eq_ignore_ascii_case(b"GOTO") {
+        return None;
+    }
+    let mut k = skip(major + 4);
+    if b.get(k) != Some(&b'/') {
+        return None;
+    }
+    k = skip(k + 1);
+    loop {
+        let (value, end) = short_decimal(b, k).or_else(|| number_at(b, k))?;
+        buf.push(Arg { value: Value::Num(value), start: (k - from) as u32, end: (end - from) as u32 });
+        // Mostly a comma right after the number, and the next number right after it.
+        if b.get(end) == Some(&b',') && !matches!(b.get(end + 1), Some(b' ' | b'\t')) {
+            k = end + 1;
+            continue;
+        }
+        k = skip(end);
+        match b.get(k) {
+            None => return Some((major - from, k)),
+            Some(b'\n' | b'\r') if line => return Some((major - from, k)),
+            Some(b',') => k = skip(k + 1),
+            Some(_) => return None,
+        }
+    }
 }
 
 fn sequence_number_len(t: &str) -> Option<usize> {
@@ -369,6 +605,128 @@ mod tests {
             statement("GOTO/1,2/3").map(|_| ()),
             Err(SyntaxError { at: 8, expected: "`,` or the end of the statement (a second `/`)" })
         );
+    }
+
+    /// The arguments of a statement, comparable: value (numbers by their bits), start, end.
+    fn shape(s: &Statement<'_>) -> (String, Word, Vec<(String, u32, u32)>, usize) {
+        let args = s
+            .args()
+            .iter()
+            .map(|a| {
+                let v = match a.value {
+                    Value::Num(n) => format!("num {:#x}", n.to_bits()),
+                    other => format!("{other:?}"),
+                };
+                (v, a.start, a.end)
+            })
+            .collect();
+        (s.major.to_string(), s.word, args, s.issues.len())
+    }
+
+    #[test]
+    fn digit_runs_of_every_length() {
+        for text in [
+            "",
+            "x",
+            "7",
+            "12",
+            "0000",
+            "1234567",
+            "12345678",
+            "123456789,",
+            "1234567890123456789",
+            "99999999999999999999",
+        ] {
+            let digits = text.bytes().take_while(u8::is_ascii_digit).count();
+            let expected = (digits <= MAX_PLAIN_DIGITS).then(|| (text[..digits].parse::<u64>().unwrap_or(0), digits));
+            assert_eq!(digit_run(text.as_bytes()), expected, "{text}");
+        }
+        assert_eq!(plain_decimal(b"-12.5,"), Some((-12.5, 5)));
+        assert_eq!(plain_decimal(b"0.9859323"), Some((0.9859323, 9)));
+        assert_eq!(plain_decimal(b"25."), Some((25.0, 3)));
+        assert_eq!(plain_decimal(b"1.5E-3"), None);
+        assert_eq!(short_decimal(b"GOTO/-1.7365,0.1736482\n", 5), Some((-1.7365, 12)));
+        assert_eq!(short_decimal(b"GOTO/-1.7365,0.1736482\nGOTO/", 13), Some((0.1736482, 22)));
+        assert_eq!(short_decimal(b"x,25.,.005,7\n\n\n\n\n\n\n", 2), Some((25.0, 5)));
+        assert_eq!(short_decimal(b"x,25.,.005,7\n\n\n\n\n\n\n", 6), Some((0.005, 10)));
+        assert_eq!(short_decimal(b"x,25.,.005,7\n\n\n\n\n\n\n", 11), Some((7.0, 12)));
+        assert_eq!(short_decimal(b"0.1736482", 0), None, "fewer than eight bytes after the point");
+        assert_eq!(short_decimal(b"-.,0000000000", 0), None);
+        assert_eq!(short_decimal(b"1.5E-3,00000000", 0), None);
+    }
+
+    #[test]
+    fn the_goto_fast_path_reads_what_the_grammar_reads() {
+        for text in [
+            "GOTO/2.2487,0.0000,0.1536,0.1671454,0.0000000,0.9859323",
+            "  goto  /  -7.2,  -23.0 , 2.0 ",
+            "GOTO/-0.000,+.5,25.",
+            "GOTO/1.5E-3,.5773503D+00,12345678901234567890.5",
+            "GOTO/1,2,3,4,5,6,7,8,9,10",
+        ] {
+            let mut fast = Args::new();
+            assert!(goto_args(text.as_bytes(), 0, false, &mut fast).is_some(), "{text}");
+            let slow = grammar(text, Box::leak(Box::new(Args::new()))).expect("parses");
+            assert_eq!(shape(&statement(text).expect("parses")), shape(&slow), "{text}");
+        }
+        for text in ["GOTO/1,2,3,", "GOTO/1 2,3", "GOTO/1,,3", "GOTO/SETPT2", "N10 GOTO/1,2,3", "GOTOX/1", "GOTO/"] {
+            assert!(goto_args(text.as_bytes(), 0, false, &mut Args::new()).is_none(), "{text}");
+        }
+    }
+
+    proptest::proptest! {
+        /// Any text the fast path takes reads the same through the grammar.
+        #[test]
+        fn the_goto_fast_path_agrees_with_the_grammar(
+            lead in "[ \t]{0,2}",
+            word in "(GOTO|goto|GoTo)",
+            slash in "[ \t]{0,2}/[ \t]{0,2}",
+            args in proptest::collection::vec("[+-]?[0-9]{0,22}(\\.[0-9]{0,22})?([eEdD][+-]?[0-9]{1,3})?[ \t]{0,2}", 0..9),
+            sep in "[ \t]{0,2},",
+            tail in "([ \t,x]|\\$)?",
+        ) {
+            let text = format!("{lead}{word}{slash}{}{tail}", args.join(&sep));
+            let mut fast = Args::new();
+            if goto_args(text.as_bytes(), 0, false, &mut fast).is_some() {
+                let slow = grammar(&text, Box::leak(Box::new(Args::new())));
+                let slow = slow.map(|s| shape(&s));
+                proptest::prop_assert_eq!(Ok(shape(&statement(&text).expect("the fast path read it"))), slow);
+            }
+        }
+
+        /// The short-number path reads what the plain-decimal path reads, wherever it decides.
+        #[test]
+        fn short_decimals_read_as_plain_decimals(
+            lead in "[0-9,]{0,3}",
+            text in "[+-]?[0-9]{0,9}(\\.[0-9]{0,9})?[eEdD,\n x]?",
+            tail in "[0-9,\n]{0,10}",
+        ) {
+            let all = format!("{lead}{text}{tail}");
+            let b = all.as_bytes();
+            let k = lead.len();
+            if let Some((value, end)) = short_decimal(b, k) {
+                let s = &b[k..];
+                let digits_at = usize::from(matches!(s.first(), Some(b'+' | b'-')));
+                proptest::prop_assert!(
+                    s.get(digits_at).is_some_and(u8::is_ascii_digit)
+                        || s.get(digits_at) == Some(&b'.') && s.get(digits_at + 1).is_some_and(u8::is_ascii_digit),
+                    "{all:?}: not a number's start"
+                );
+                let (expected, used) = plain_decimal(s).expect("a plain decimal");
+                proptest::prop_assert_eq!((value.to_bits(), end), (expected.to_bits(), k + used), "{:?}", all);
+            }
+        }
+
+        /// The plain-decimal fast path gives the correctly rounded double, as the general parser.
+        #[test]
+        fn plain_decimals_are_correctly_rounded(text in "[+-]?([0-9]{1,20}(\\.[0-9]{0,20})?|\\.[0-9]{1,20})") {
+            if let Some((value, used)) = plain_decimal(text.as_bytes()) {
+                let (expected, n) = fast_float2::parse_partial::<f64, _>(text.as_bytes()).expect("a number");
+                proptest::prop_assert_eq!((value.to_bits(), used), (expected.to_bits(), n));
+                let std: f64 = text[..used].parse().expect("std parses it");
+                proptest::prop_assert_eq!(value.to_bits(), std.to_bits());
+            }
+        }
     }
 
     #[test]

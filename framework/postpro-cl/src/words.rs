@@ -211,7 +211,11 @@ pub(crate) fn canonical(raw: &str) -> String {
         if !out.is_empty() && !out.ends_with(',') && !part.starts_with(',') {
             out.push(' ');
         }
-        out.push_str(&part.to_uppercase());
+        if part.is_ascii() {
+            out.extend(part.bytes().map(|b| char::from(b.to_ascii_uppercase())));
+        } else {
+            out.push_str(&part.to_uppercase());
+        }
     }
     out
 }

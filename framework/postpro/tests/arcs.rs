@@ -307,8 +307,8 @@ fn without_datum_shift(program: &Program) -> Program {
 /// intersection (`--part-origin 0,0,0`), are the same rotation of the same points: the axis values
 /// of the tilted table. So clsplit's positions are compared as written, the datum shift taken
 /// back out. Sacrifice-Board is left out: its second set-up points along −Z, beyond the Haas's B
-/// travel (and clsplit wrote `nan` for it); so is shimemcunha's second set-up, `12.h`, which our
-/// reader tilts ([`shimemcunhas_second_set_up_is_about_z_as_its_csys_says`]).
+/// travel (and clsplit wrote `nan` for it); shimemcunha's second set-up, `12.h`, has a test of its
+/// own ([`shimemcunhas_second_set_up_is_about_z_as_its_csys_says`]).
 #[test]
 fn every_arc_of_clsplits_tilted_set_ups_is_ours() {
     let cases: Vec<Case> = golden::clsplit_cases()
@@ -321,13 +321,12 @@ fn every_arc_of_clsplits_tilted_set_ups_is_ours() {
 
 /// shimemcunha's second set-up (`CSYS/1.,0,0,0,0,1.,0,0,0,0,1.,0` after the first's tilted one,
 /// then 3-value GOTOs) is about +Z: clsplit machines it so (`12.h`: "axis 0.000 0.000 1.000";
-/// its README: the set-up axis is the CSYS's third column). Our reader keeps the tool axis of the
-/// first set-up's 6-value GOTOs, (0.005061, 0, 0.999987): the Haas stays at B 0.29° for the three
-/// holes and the contours, whose 28 arcs are then not circles of the frame and come out as chords
-/// (none of clsplit's arcs is in ours). Reported (issue 12's tests); ignored until the reader takes
-/// a SOLIDWORKS CAM set-up's axis from its `CSYS`.
+/// its README: the set-up axis is the CSYS's third column), and so does our reader, which takes a
+/// SOLIDWORKS CAM set-up's tool axis from its `CSYS`. It used to keep the tool axis of the first
+/// set-up's 6-value GOTOs, (0.005061, 0, 0.999987): the Haas stayed at B 0.29° for the three holes
+/// and the contours, whose 28 arcs were then not circles of the frame and came out as chords (none
+/// of clsplit's arcs was in ours).
 #[test]
-#[ignore = "product bug: after a SOLIDWORKS CAM CSYS the 3-value GOTOs keep the previous set-up's tool axis"]
 fn shimemcunhas_second_set_up_is_about_z_as_its_csys_says() {
     let cases: Vec<Case> = golden::clsplit_cases().into_iter().filter(|c| c.name.ends_with("shimemcunha")).collect();
     tilted_set_ups(&cases, |program| program.ends_with("shimemcunha/expected/12.h"));

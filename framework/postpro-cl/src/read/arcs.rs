@@ -17,7 +17,7 @@
 
 use nalgebra::{Point3, Unit, Vector3};
 
-use super::{Builder, Ctx, ItemSink, arg_span, args_span, body_span, line_of, line_word};
+use super::{Builder, Ctx, ItemSink, MAX_MAGNITUDE, arg_span, args_span, body_span, line_of, line_word};
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::model::*;
 use crate::span::Span;
@@ -490,6 +490,16 @@ impl<S: ItemSink> Builder<'_, S> {
         let (Some(circle), Some(line)) = (parse_group(groups[0]), parse_group(groups[1])) else {
             return self.error(cx, span, "cannot evaluate APT motion", expected);
         };
+        // The groups' numbers, as any interpreted statement's (`2.E40000` is infinite).
+        let out_of_range = |v: &f64| (v * self.scale).is_nan() || (v * self.scale).abs() > MAX_MAGNITUDE;
+        if let Some(group) = [&circle, &line].into_iter().find(|g| g.1.iter().any(out_of_range)) {
+            return self.error(
+                cx,
+                group.2,
+                "number out of range",
+                "expected a number within ±1e9 (mm, mm/min, s, rpm, rad)",
+            );
+        }
         if circle.0 != Word::Circle || circle.1.len() != 4 || line.1.len() != 6 || !line_word(groups[1].0) {
             return self.error(cx, circle.2.to(line.2), "cannot evaluate APT motion", expected);
         }

@@ -10,8 +10,9 @@
 //! Frames: the **part frame** is the frame in effect at the first motion (the NX `MSYS` of the
 //! first operation, or the file's own frame). Points written after a later `MSYS` or a CAMWorks
 //! `ROTABL` are transformed into it. SOLIDWORKS CAM writes its points in the world frame already
-//! (its `CSYS` maps world to the setup: the holes of the repeated set-ups in
-//! `manufacture3-top.apt` satisfy it), so `CSYS` is recorded and does not move points.
+//! (the holes of the repeated set-ups in `manufacture3-top.apt` are where their `CSYS` matrices
+//! put them), so `CSYS` does not move points; its third column is the set-up's tool axis, the
+//! modal axis of the 3-value GOTOs that follow.
 
 mod arcs;
 mod cycles;
@@ -108,8 +109,11 @@ fn pass(
     sink: &mut impl ItemSink,
 ) -> (ProgramInfo, Vec<Diagnostic>, SenseVotes) {
     let mut b = Builder::new(src, sink, options, pre, sense);
-    for unit in Splitter::new(src) {
-        b.unit(unit);
+    let mut splitter = Splitter::new(src);
+    // The arguments of the plain GOTO lines the splitter reads on the way.
+    let mut goto = syntax::Args::new();
+    while let Some(unit) = splitter.next_with(&mut goto) {
+        b.unit(unit, &goto);
     }
     b.finish()
 }
@@ -275,9 +279,9 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     // ----- units of the file ---------------------------------------------------------------
 
-    fn unit(&mut self, unit: RawUnit<'_>) {
+    fn unit(&mut self, unit: RawUnit<'_>, goto: &[Arg<'_>]) {
         match unit {
-            RawUnit::Statement(rec) => self.record(&rec),
+            RawUnit::Statement(rec) => self.record(&rec, goto),
             RawUnit::Comment { span, text } => {
                 let kind = match comment_operation(text) {
                     Some(name) => ItemKind::OperationStart(name),
@@ -289,7 +293,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
     }
 
-    fn record(&mut self, rec: &RawRecord<'_>) {
+    /// A record; `goto`: its arguments when the splitter has read them (`rec.goto`).
+    fn record(&mut self, rec: &RawRecord<'_>, goto: &[Arg<'_>]) {
         self.info.statements += 1;
         if let Some(fini) = self.fini_at
             && !self.warned_after_fini
@@ -333,7 +338,10 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             ));
         }
         let mut args = syntax::Args::new();
-        let parsed = syntax::statement(&rec.text, &mut args);
+        let parsed = match rec.goto {
+            Some(major) => Ok(syntax::goto(&rec.text, major, goto)),
+            None => syntax::statement(&rec.text, &mut args),
+        };
         let stmt = match parsed {
             Ok(s) => s,
             Err(e) => {
@@ -396,7 +404,12 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             && let Some(a) = st.args().iter().find(|a| matches!(a.value, Value::Num(v) if (v * self.scale).is_nan() || (v * self.scale).abs() > MAX_MAGNITUDE))
         {
             let span = arg_span(cx, a);
-            return self.error(cx, span, "number out of range", "expected a number within ±1e9 (mm, mm/min, s, rpm, rad)");
+            return self.error(
+                cx,
+                span,
+                "number out of range",
+                "expected a number within ±1e9 (mm, mm/min, s, rpm, rad)",
+            );
         }
         match st.word {
             Word::Goto => self.goto(cx, st),
@@ -479,23 +492,26 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         if n < args.len() {
             self.warn(cx, arg_span(cx, &args[n]), "trailing comma", "empty argument ignored", None);
         }
-        let mut out = smallvec::SmallVec::new();
-        for a in &args[..n] {
-            match a.value {
-                // Magnitudes were checked for every interpreted statement in `statement`.
-                Value::Num(v) => out.push(v),
-                _ => {
-                    self.error(
-                        cx,
-                        arg_span(cx, a),
-                        format!("{} expects numbers", cx.word_name()),
-                        format!("expected a number ({form})"),
-                    );
-                    return None;
-                }
-            }
+        if let Some(a) = args[..n].iter().find(|a| !matches!(a.value, Value::Num(_))) {
+            self.error(
+                cx,
+                arg_span(cx, a),
+                format!("{} expects numbers", cx.word_name()),
+                format!("expected a number ({form})"),
+            );
+            return None;
         }
-        Some(out)
+        // Magnitudes were checked for every interpreted statement in `statement`.
+        let value = |a: &Arg<'_>| if let Value::Num(v) = a.value { v } else { f64::NAN };
+        if n <= 8 {
+            // Up to eight (every GOTO): filled in place, no growth checks.
+            let mut buf = [0.0; 8];
+            for (slot, a) in buf.iter_mut().zip(&args[..n]) {
+                *slot = value(a);
+            }
+            return Some(smallvec::SmallVec::from_buf_and_len(buf, n));
+        }
+        Some(args[..n].iter().map(value).collect())
     }
 
     /// APT source refers to named geometry: `goto/setpt2`, `goto/pb,-1,0,1`, `tlaxis/atangl,2,45`.
@@ -511,17 +527,21 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn direction(&mut self, cx: &Ctx<'_>, span: Span, i: f64, j: f64, k: f64) -> Option<ToolAxis> {
+        self.direction_at(cx, || span, i, j, k)
+    }
+
+    /// [`Self::direction`] with the span computed only for a diagnostic.
+    fn direction_at(&mut self, cx: &Ctx<'_>, span: impl FnOnce() -> Span, i: f64, j: f64, k: f64) -> Option<ToolAxis> {
         let v = Vector3::new(i, j, k);
-        let norm = v.norm();
+        let (unit, norm) = Unit::new_and_get(v);
         if norm.is_nan() || norm <= 1e-9 {
-            self.error(cx, span, "zero direction vector", "expected a unit vector (i,j,k)");
+            self.error(cx, span(), "zero direction vector", "expected a unit vector (i,j,k)");
             return None;
         }
         if (norm - 1.0).abs() > UNIT_TOLERANCE {
-            self.warn(cx, span, format!("direction vector has length {norm:.6}"), "normalised to unit length", None);
+            self.warn(cx, span(), format!("direction vector has length {norm:.6}"), "normalised to unit length", None);
         }
-        let v = if self.identity_frame { v } else { self.to_part.rotation * v };
-        Some(Unit::new_normalize(v))
+        Some(if self.identity_frame { unit } else { Unit::new_normalize(self.to_part.rotation * v) })
     }
 
     fn fix_part_frame(&mut self) {
@@ -574,7 +594,25 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     /// `form` = `WORD/x,y,z[,i,j,k]`: the point in the part frame; a tool axis given becomes the
     /// modal one. `None` after a diagnostic.
     fn position_args(&mut self, cx: &Ctx<'_>, st: &Statement<'_>, form: &str) -> Option<Point3<f64>> {
-        let v = self.numbers(cx, st, form)?;
+        // The usual 3 or 6 numbers are copied straight; anything else goes through `numbers`
+        // (trailing commas, words).
+        let args = st.args();
+        let mut plain = [0.0; 6];
+        let all_numbers = args.len() <= 6
+            && args.iter().zip(plain.iter_mut()).all(|(a, slot)| match a.value {
+                Value::Num(v) => {
+                    *slot = v;
+                    true
+                }
+                _ => false,
+            });
+        let numbers;
+        let v: &[f64] = if all_numbers {
+            &plain[..args.len()]
+        } else {
+            numbers = self.numbers(cx, st, form)?;
+            &numbers
+        };
         if v.len() != 3 && v.len() != 6 {
             let word = form.split('/').next().unwrap_or(form);
             let span = body_span(cx, st);
@@ -588,8 +626,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         }
         self.fix_part_frame();
         if v.len() == 6 {
-            let span = args_span(cx, st, 3, 6);
-            self.axis = self.direction(cx, span, v[3], v[4], v[5])?;
+            self.axis = self.direction_at(cx, || args_span(cx, st, 3, 6), v[3], v[4], v[5])?;
         }
         Some(self.point(v[0], v[1], v[2]))
     }
@@ -1126,6 +1163,20 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 "expected 12 values: a 3×4 matrix, row by row",
             );
         };
+        // The rotation's third column is the set-up's tool axis, in the frame the points are
+        // written in: the modal axis of the 3-value GOTOs that follow (6-value GOTOs, TLAXIS and
+        // FROM still set their own).
+        let span = args_span(cx, st, 2, 11);
+        if Vector3::new(m[2], m[6], m[10]).norm() <= 1e-9 {
+            return self.error(
+                cx,
+                span,
+                "CSYS gives no tool axis: its third column is zero",
+                "expected the set-up's Z axis in values 3, 7 and 11",
+            );
+        }
+        let Some(axis) = self.direction(cx, span, m[2], m[6], m[10]) else { return };
+        self.axis = axis;
         let change = FrameChange { source: FrameSource::Csys(m), to_part: self.to_part };
         self.emit(cx.rec.span, ItemKind::Frame(Box::new(change)));
     }
@@ -1245,8 +1296,13 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             Body::None => String::new(),
             _ => cx.rec.text.split_once('/').map_or(String::new(), |(_, a)| a.trim().to_string()),
         };
-        let entry = self.info.uninterpreted.entry(word.clone()).or_insert(WordUse { count: 0, first: span, unknown });
-        entry.count += 1;
+        // Counted without cloning the word for each record (a BTreeMap's entry takes its key).
+        match self.info.uninterpreted.get_mut(&word) {
+            Some(entry) => entry.count += 1,
+            None => {
+                self.info.uninterpreted.insert(word.clone(), WordUse { count: 1, first: span, unknown });
+            }
+        }
         self.emit(span, ItemKind::Record(Record { word, args }));
     }
 

@@ -44,29 +44,41 @@ pub(super) fn prescan(src: &str) -> Prescan {
     let mut continued = false;
     let mut pos = 0;
     while pos < bytes.len() {
-        let line_end = memchr::memchr2(b'\n', b'\r', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
-        let line = &src[pos..line_end];
+        // A line ends at `\n`, `\r\n` or a lone `\r`, as for the reader.
         let start = pos;
-        pos = line_end + 1;
+        let line_end = memchr::memchr2(b'\n', b'\r', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
+        pos = match bytes.get(line_end) {
+            Some(b'\r') if bytes.get(line_end + 1) == Some(&b'\n') => line_end + 2,
+            Some(_) => line_end + 1,
+            None => line_end,
+        };
+        let line = &bytes[start..line_end];
         // A continuation line belongs to the record (or comment) before it.
         let was_continued = std::mem::replace(&mut continued, ends_with_single_dollar(line));
-        let trimmed = line.trim_start_matches([' ', '\t']);
-        let Some(&first) = trimmed.as_bytes().first() else { continue };
+        let Some(lead) = line.iter().position(|&c| c != b' ' && c != b'\t') else { continue };
         if was_continued {
             continue;
         }
-        if trimmed.starts_with("$$") {
-            cam.comment(trimmed);
+        let first = line[lead];
+        if first == b'$' && line.get(lead + 1) == Some(&b'$') {
+            cam.comment(&src[start + lead..line_end]);
             continue;
         }
+        let upper = first.to_ascii_uppercase();
+        let wanted_units = units.is_none() && (upper == b'U' || upper == b'F' && feed_hint.is_none());
+        let wanted = wanted_units || matches!(upper, b'B' | b'C' | b'M' | b'O' | b'P' | b'R' | b'T');
+        // Past the header, a line that starts with a character no word of interest (nor the
+        // listing footer) starts with is passed at once: most lines, GOTOs.
+        if seen_statement && !wanted && first.is_ascii_graphic() {
+            continue;
+        }
+        let line = &src[start..line_end];
         if is_listing_line(line, seen_statement) {
             cam.vote(CamSystem::SiemensNx);
             continue;
         }
         seen_statement = true;
-        let first = first.to_ascii_uppercase();
-        let wanted_units = units.is_none() && (first == b'U' || first == b'F' && feed_hint.is_none());
-        if !wanted_units && !matches!(first, b'B' | b'C' | b'M' | b'O' | b'P' | b'R' | b'T') {
+        if !wanted {
             continue;
         }
         let Some(seen) = classify(src, start, line) else { continue };
@@ -170,9 +182,9 @@ pub(super) fn unit_word(w: &str) -> Option<LengthUnit> {
 }
 
 /// The line ends with a single `$` (not `$$`): the next line continues its record or comment.
-fn ends_with_single_dollar(line: &str) -> bool {
-    let t = line.trim_end_matches([' ', '\t']);
-    t.ends_with('$') && !t.ends_with("$$")
+fn ends_with_single_dollar(line: &[u8]) -> bool {
+    let n = line.iter().rposition(|&c| c != b' ' && c != b'\t').map_or(0, |p| p + 1);
+    line[..n].ends_with(b"$") && !line[..n].ends_with(b"$$")
 }
 
 fn starts_with_ignore_case(text: &str, prefix: &str) -> bool {
@@ -215,5 +227,23 @@ impl CamEvidence {
     fn decide(&self) -> Option<CamSystem> {
         let (best, &n) = self.votes.iter().enumerate().max_by_key(|&(k, n)| (n, std::cmp::Reverse(k)))?;
         self.header.or((n > 0).then(|| CamSystem::ALL[best]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A continuation line is part of the record before it, whatever the line ends: with CRLF
+    /// too (it used to be read as a line of its own there, after the empty "line" between `\r`
+    /// and `\n`).
+    #[test]
+    fn continuation_lines_are_not_statements_with_any_line_end() {
+        for end in ["\n", "\r\n", "\r"] {
+            let src = format!("PPRINT/SEE$ {end}UNITS/INCHES{end}FEDRAT/10,MMPM{end}GOTO/1,2,3{end}");
+            let pre = prescan(&src);
+            assert_eq!(pre.units.unit, LengthUnit::Mm, "{end:?}");
+            assert!(matches!(pre.units.origin, UnitsOrigin::FeedWord(_)), "{end:?}");
+        }
     }
 }
