@@ -26,6 +26,7 @@
 //! ```
 
 mod diagnostic;
+mod file;
 mod model;
 mod read;
 mod records;
@@ -37,9 +38,10 @@ mod words;
 use std::path::Path;
 
 pub use diagnostic::{Diagnostic, Severity};
+pub use file::ClFile;
 pub use model::*;
 pub use read::{ItemSink, ReadOptions, read, read_into, read_into_with, read_with};
-pub use span::{LineCol, Source, Span};
+pub use span::{LineCol, Locate, Source, Span};
 pub use summary::{
     BoundingBox, FeedSummary, MoveCounts, PathLength, Range, Summary, ToolSummary, UnitsSummary, WarningSummary,
     summarize, summarize_tool_path, summarize_with,
@@ -64,6 +66,12 @@ pub enum Error {
         path: String,
         /// Its size.
         size: u64,
+    },
+    /// The file changed between two readings of it (each pass must read the same text).
+    #[error("{path} changed while it was being read; run again once it is written")]
+    Changed {
+        /// The path.
+        path: String,
     },
 }
 

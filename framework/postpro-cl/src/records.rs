@@ -55,6 +55,32 @@ struct Pieces {
     more: Vec<(u32, u32)>,
 }
 
+impl Unit<'_> {
+    /// The unit of a window of the text that starts at offset `base`: its spans moved into the
+    /// whole text.
+    pub(crate) fn shifted(mut self, base: usize) -> Self {
+        if base == 0 {
+            return self;
+        }
+        let shift = |span: &mut Span| span.start += base as u32;
+        match &mut self {
+            Unit::Statement(rec) => {
+                shift(&mut rec.span);
+                if let Some(ignored) = rec.ignored.as_mut() {
+                    shift(ignored);
+                }
+                rec.pieces.first += base as u32;
+                for piece in &mut rec.pieces.more {
+                    piece.1 += base as u32;
+                }
+            }
+            Unit::Comment { span, .. } => shift(span),
+            Unit::Listing => {}
+        }
+        self
+    }
+}
+
 impl Record<'_> {
     /// The source offset of a byte offset in `text`.
     pub(crate) fn source_offset(&self, text_offset: usize) -> usize {
@@ -103,6 +129,8 @@ struct Lexed {
 }
 
 impl<'a> Splitter<'a> {
+    /// A splitter at the start of `src`.
+    #[cfg(test)]
     pub(crate) fn new(src: &'a str) -> Self {
         Splitter { src, pos: 0, seen_statement: false }
     }
@@ -140,6 +168,22 @@ impl<'a> Splitter<'a> {
     /// A splitter that starts at a line start (used by the unit pre-scan).
     pub(crate) fn at(src: &'a str, pos: usize) -> Self {
         Splitter { src, pos, seen_statement: true }
+    }
+
+    /// A splitter over a window of the text, at offset `pos` of it, a statement seen before or
+    /// not (the state carried from the window before).
+    pub(crate) fn resume(src: &'a str, pos: usize, seen_statement: bool) -> Self {
+        Splitter { src, pos, seen_statement }
+    }
+
+    /// Where the next unit starts looking, in the text.
+    pub(crate) fn pos(&self) -> usize {
+        self.pos
+    }
+
+    /// True once a statement has been read (no more NX listing header lines).
+    pub(crate) fn seen_statement(&self) -> bool {
+        self.seen_statement
     }
 
     fn next_line(&mut self) -> Option<Line> {

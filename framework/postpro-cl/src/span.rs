@@ -142,6 +142,30 @@ impl Source {
     }
 }
 
+/// A named CL text that says where its offsets are: a [`Source`] (held whole) or a
+/// [`crate::ClFile`] (read from disk).
+pub trait Locate {
+    /// The name shown in messages (the path).
+    fn name(&self) -> &str;
+    /// Line and column of an offset of the text (1-based).
+    fn line_col(&self, offset: usize) -> LineCol;
+    /// `name:line:column` of an offset of the text.
+    fn location(&self, offset: usize) -> String {
+        let lc = self.line_col(offset);
+        format!("{}:{}:{}", self.name(), lc.line, lc.column)
+    }
+}
+
+impl Locate for Source {
+    fn name(&self) -> &str {
+        Source::name(self)
+    }
+
+    fn line_col(&self, offset: usize) -> LineCol {
+        Source::line_col(self, offset)
+    }
+}
+
 fn line_starts(text: &[u8]) -> Vec<u32> {
     let mut starts = vec![0u32];
     let mut pos = 0;

@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::process::ExitCode;
 
-use postpro_cl::{Source, ToolPath};
+use postpro_cl::{Locate, Source, ToolPath};
 use postpro_emit::{Dialect, Mode};
 use postpro_kin::{Kinematics, Solved, solve_with_tools};
 use postpro_machine::model::{Machine, Travel};
@@ -54,7 +54,7 @@ pub(crate) fn fail(message: &str, code: u8) -> ExitCode {
 /// Prints warnings about a CL file on standard error, `file:line:column` first (as errors with
 /// `strict`); returns how many.
 pub(crate) fn warn_all<'w>(
-    source: &Source,
+    source: &dyn Locate,
     warnings: impl IntoIterator<Item = &'w postpro_motion::Warning>,
     strict: bool,
 ) -> usize {
@@ -75,7 +75,7 @@ const PRINTED_WARNINGS: usize = 20;
 /// with its count, as `check` does), with `notes` also what it passed over; returns the number
 /// of warnings.
 pub(crate) fn report_reading(
-    source: &Source,
+    source: &dyn Locate,
     (info, diagnostics): (&postpro_cl::ProgramInfo, &[postpro_cl::Diagnostic]),
     strict: bool,
     notes: bool,

@@ -239,7 +239,7 @@ pub(crate) fn header(
     args: &PredictionArgs,
     mode: Mode,
     marks: &[Mark],
-    (machine, source): (&Machine, &postpro_cl::Source),
+    (machine, source): (&Machine, &dyn postpro_cl::Locate),
 ) -> postpro_emit::Prediction {
     postpro_emit::Prediction {
         cycle_time: totals.cycle_time,

@@ -1,5 +1,5 @@
-//! The main job streamed: the CL file is read three times and nothing proportional to its
-//! length is held apart from its text and a few bits per CL point.
+//! The main job streamed: the CL file is read three times, a window at a time ([`ClFile`]), and
+//! nothing proportional to its length is held but a few bits per CL point.
 //!
 //! 1. **Survey**: the reader's items, their targets and the policy's first pass (the branch
 //!    graph), the tools and their changes, whether the tool turns while cutting (the mode `auto`
@@ -20,7 +20,7 @@ use std::io::Write;
 use std::path::Path;
 use std::process::ExitCode;
 
-use postpro_cl::{Item, ItemKind, ItemSink, Motion, ProgramInfo, Source, Span, TextKind, ToolAxis};
+use postpro_cl::{ClFile, Item, ItemKind, ItemSink, Motion, ProgramInfo, Span, TextKind, ToolAxis};
 use postpro_emit::{Dialect, EmitError, Options, WriteError};
 use postpro_kin::{
     BranchGraph, Collected, Kinematics, Linearizer, Linearizing, Placer, Shape, SolveError, Stretches, Target,
@@ -134,15 +134,17 @@ impl ItemSink for SurveySink<'_> {
 
 /// Why a pass stopped.
 enum PassError {
+    Read(postpro_cl::Error),
     Solve(SolveError),
     Motion(postpro_motion::MotionError),
 }
 
 impl PassError {
-    fn render(self, source: &Source) -> String {
+    fn render(self, file: &ClFile) -> String {
         match self {
-            PassError::Solve(e) => report::render_with_source(e, source.name(), source.text()),
-            PassError::Motion(e) => report::render_with_source(e, source.name(), source.text()),
+            PassError::Read(e) => format!("error: {e}\n"),
+            PassError::Solve(e) => render_in(e, file),
+            PassError::Motion(e) => render_in(e, file),
         }
     }
 }
@@ -291,7 +293,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
             machine.name
         );
     }
-    let source = Source::from_path(how.file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
+    let file = ClFile::open(how.file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
     let read_options = how.setup.read.options();
     // Linear travels are checked on the program, in the work offset's frame, once it is built:
     // the kinematics' machine coordinates are those of the definition's assumed part zero.
@@ -307,21 +309,26 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
     let render = |e: PassError| match solver.take_error() {
         // A plugin's failure is why the solve went wrong.
         Some(e) => fail(&report::render(&e), 1),
-        None => fail(&e.render(&source), 1),
+        None => fail(&e.render(&file), 1),
     };
 
     // 1. The survey.
     stage("reading");
     let started = std::time::Instant::now();
-    let surveyed = survey(&source, &read_options, kin, policy, setup.tool_table.as_ref());
+    let surveyed = survey(&file, &read_options, kin, policy, setup.tool_table.as_ref());
+    let surveyed = surveyed.map_err(|e| render(PassError::Read(e)))?;
     if surveyed.diagnostics.iter().any(postpro_cl::Diagnostic::is_error) {
-        for d in surveyed.diagnostics.iter().filter(|d| d.is_error()) {
-            eprint!("{}", d.render(&source));
+        // The text is read whole to show the errors with their lines.
+        match file.source() {
+            Ok(source) => {
+                surveyed.diagnostics.iter().filter(|d| d.is_error()).for_each(|d| eprint!("{}", d.render(&source)))
+            }
+            Err(e) => eprintln!("error: {e}"),
         }
-        return Err(fail(&format!("error: {} does not read; {WRITTEN}\n", source.name()), 1));
+        return Err(fail(&format!("error: {} does not read; {WRITTEN}\n", file.name()), 1));
     }
     let strict = how.setup.strict;
-    let mut warnings = crate::job::report_reading(&source, (&surveyed.info, &surveyed.diagnostics), strict, true);
+    let mut warnings = crate::job::report_reading(&file, (&surveyed.info, &surveyed.diagnostics), strict, true);
     if !surveyed.moves {
         let why = if surveyed.info.apt_source {
             "it is an APT part program (source language: geometry and motion statements for an APT processor), \
@@ -329,16 +336,16 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         } else {
             "it has no GOTO, arc or NURBS"
         };
-        return Err(fail(&format!("error: {} has no motion: {why}; {WRITTEN}\n", source.name()), 1));
+        return Err(fail(&format!("error: {} has no motion: {why}; {WRITTEN}\n", file.name()), 1));
     }
     let mode = how.mode.resolve_turning(surveyed.turns_tool, &machine, dialect);
     let job =
         postpro_motion::Job::with_tooling(kin, surveyed.tooling.clone(), mode, setup.work_offset.unwrap_or_default());
     let mut job = job.map_err(|e| {
-        let rendered = report::render_with_source(e, source.name(), source.text());
+        let rendered = render_in(e, &file);
         fail(&format!("{rendered}error: {WRITTEN}\n"), 1)
     })?;
-    warnings += warn_all(&source, &surveyed.tool_warnings, strict);
+    warnings += warn_all(&file, &surveyed.tool_warnings, strict);
     if strict && warnings > 0 {
         return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
     }
@@ -368,11 +375,16 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         Some(p) => p,
         None => &mut dropped,
     };
-    let predicted = Pass { source: &source, read_options: &read_options, kin, policy, job: &job, unknown: &unknown }
-        .run(&motion_options, SetUps::default(), (&surveyed.choice, None), true, sink);
+    let predicted = Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown }.run(
+        &motion_options,
+        SetUps::default(),
+        (&surveyed.choice, None),
+        true,
+        sink,
+    );
     let Passed { summary, survey, shape } = predicted.map_err(render)?;
     let survey = survey.unwrap_or_default();
-    let warnings = warn_all(&source, &summary.warnings, strict);
+    let warnings = warn_all(&file, &summary.warnings, strict);
     if strict && warnings > 0 {
         return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
     }
@@ -387,11 +399,11 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
             let done = p.predictor.finish(&p.blocks);
             p.take(done);
             for note in &p.blocks.notes {
-                eprintln!("note: {}: prediction: {}", source.location(note.span.start as usize), note.text);
+                eprintln!("note: {}: prediction: {}", file.location(note.span.start as usize), note.text);
             }
             let marks = p.marks.finish();
             let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
-            let header = crate::predict::header((&totals, &operations), args, mode, &marks, (&machine, &source));
+            let header = crate::predict::header((&totals, &operations), args, mode, &marks, (&machine, &file));
             (Some(header), crate::predict::annotations(&marks, &machine))
         }
         _ => (None, Vec::new()),
@@ -404,7 +416,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
     let options = Options {
         units: setup.units(&machine),
         program_name: how.program_name.clone(),
-        source_name: source.name().to_string(),
+        source_name: file.name().to_string(),
         block_numbers: how.block_numbers,
         tcp_orientation: how.tcp_orientation,
         insert_verbatim: how.insert_verbatim,
@@ -420,7 +432,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         blocks: Vec::new(),
         summary: summary.clone(),
     };
-    let pass = Pass { source: &source, read_options: &read_options, kin, policy, job: &job, unknown: &unknown };
+    let pass = Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown };
     let write = |out: &mut dyn Write| -> Result<(), Failure> {
         let mut scratch = ScratchFile::beside(output)?;
         let mut travel = Vec::new();
@@ -450,7 +462,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
             WriteError::Emit(e) => Failure::Emit(e),
             WriteError::Produce(e) => Failure::Pass(e),
         })?;
-        let count = warn_all(&source, &travel, strict);
+        let count = warn_all(&file, &travel, strict);
         if strict && count > 0 {
             return Err(Failure::Refused(format!(
                 "error: {count} warning(s), and --strict makes them errors; {WRITTEN}\n"
@@ -484,9 +496,9 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
             "timing: {} CL points ({:.1} MB) in {seconds:.3} s: {:.0} k CL points/s, {:.1} MB/s (survey {:.3} s, {} {:.3} s, \
              writing {:.3} s)",
             summary.cl_points,
-            source.text().len() as f64 / 1e6,
+            file.len() as f64 / 1e6,
             summary.cl_points as f64 / seconds / 1e3,
-            source.text().len() as f64 / seconds / 1e6,
+            file.len() as f64 / seconds / 1e6,
             surveyed_at.as_secs_f64(),
             if how.prediction.is_some() { "prediction" } else { "solving" },
             (predicted_at - surveyed_at).as_secs_f64(),
@@ -498,7 +510,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         eprintln!(
             "note: {inserts} INSERT text(s) written as comments (first at {}); `--insert verbatim` passes them to the \
              controller as blocks",
-            source.location(first.start as usize)
+            file.location(first.start as usize)
         );
     }
     if output != Path::new("-") {
@@ -559,12 +571,12 @@ impl std::ops::Drop for ScratchFile {
 
 /// The first pass (see the module's documentation).
 fn survey(
-    source: &Source,
+    file: &ClFile,
     read_options: &postpro_cl::ReadOptions,
     kin: &dyn Kinematics,
     policy: &postpro_kin::Policy,
     table: Option<&postpro_machine::tools::ToolTable>,
-) -> Surveyed {
+) -> Result<Surveyed, postpro_cl::Error> {
     let mut sink = SurveySink {
         graph: BranchGraph::new(kin, policy, None),
         tolerance: policy.linearization_tolerance,
@@ -576,10 +588,10 @@ fn survey(
         inserts: (0, None),
         error: None,
     };
-    let (info, diagnostics) = postpro_cl::read_into_with(source, read_options, &mut sink);
+    let (info, diagnostics) = file.read_into_with(read_options, &mut sink)?;
     let SurveySink { graph, tooling, turns_tool, moves, inserts, error, .. } = sink;
     let (tooling, tool_warnings) = tooling.finish();
-    Surveyed {
+    Ok(Surveyed {
         info,
         diagnostics,
         choice: graph.finish(),
@@ -589,13 +601,13 @@ fn survey(
         turns_tool,
         moves,
         inserts,
-    }
+    })
 }
 
 /// What a pass of the stages from the items to motion blocks reads (see [`Motions`]).
 #[derive(Clone, Copy)]
 struct Pass<'a> {
-    source: &'a Source,
+    file: &'a ClFile,
     read_options: &'a postpro_cl::ReadOptions,
     kin: &'a dyn Kinematics,
     policy: &'a postpro_kin::Policy,
@@ -633,7 +645,19 @@ impl Pass<'_> {
             index: 0,
             error: None,
         };
-        postpro_cl::read_into_with(self.source, self.read_options, &mut motions);
+        self.file.read_into_with(self.read_options, &mut motions).map_err(PassError::Read)?;
         motions.finish()
+    }
+}
+
+/// The rendered report of an error whose spans point into the CL text: the text is read whole
+/// for it (the job stops there).
+fn render_in<D>(e: D, file: &ClFile) -> String
+where
+    D: miette::Diagnostic + Send + Sync + 'static,
+{
+    match file.source() {
+        Ok(source) => report::render_with_source(e, source.name(), source.text()),
+        Err(_) => report::render(&e),
     }
 }

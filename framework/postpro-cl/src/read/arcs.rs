@@ -17,7 +17,7 @@
 
 use nalgebra::{Point3, Unit, Vector3};
 
-use super::{Builder, Ctx, ItemSink, MAX_MAGNITUDE, arg_span, args_span, body_span, line_of, line_word};
+use super::{Builder, Ctx, ItemSink, MAX_MAGNITUDE, arg_span, args_span, body_span, line_word};
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::model::*;
 use crate::span::Span;
@@ -426,7 +426,7 @@ impl<S: ItemSink> Builder<'_, S> {
         let read = if check.normal.dot(&check.written) > 0.0 { ArcSense::Ccw } else { ArcSense::Cw };
         let moves: Vec<String> = against
             .iter()
-            .map(|(n, w)| format!("the move {w} it (line {})", line_of(self.src, n.span.start as usize)))
+            .map(|(n, w)| format!("the move {w} it (line {})", self.line_of(n.span.start as usize)))
             .collect();
         let (a, b) = (sense_words(read), sense_words(read.reversed()));
         let why = match (check.explicit, self.sense) {

@@ -18,11 +18,13 @@ mod arcs;
 mod cycles;
 mod prescan;
 
+use std::sync::Arc;
+
 use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 
 use self::arcs::{ArcCheck, Arrival, PendingArc, SensePlan, SenseVotes};
 use self::cycles::{PendingCycle, ReturnPlane};
-use self::prescan::{Prescan, prescan, unit_word};
+use self::prescan::{Prescan, unit_word};
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::model::*;
 use crate::records::{Record as RawRecord, Splitter, Unit as RawUnit};
@@ -86,36 +88,90 @@ pub fn read_into_with(
     options: &ReadOptions,
     sink: &mut impl ItemSink,
 ) -> (ProgramInfo, Vec<Diagnostic>) {
-    let pre = prescan(source.text());
+    let text = source.shared_text();
+    let whole = |each: &mut dyn FnMut(&Window, bool) -> usize| -> Result<(), std::convert::Infallible> {
+        each(&Window { text: Arc::clone(&text), base: 0, lines_before: 0 }, true);
+        Ok(())
+    };
+    match read_windows(whole, text.len(), options, sink) {
+        Ok(read) => read,
+        Err(never) => match never {},
+    }
+}
+
+/// Reads a text that `windows` hands over in windows (each call of it goes over the whole text
+/// from the start, every window ending at a line end; see [`crate::ClFile`]): the pre-scan, the
+/// arc-sense survey when the sense is not known, then the reading itself.
+pub(crate) fn read_windows<E>(
+    mut windows: impl FnMut(&mut dyn FnMut(&Window, bool) -> usize) -> Result<(), E>,
+    len: usize,
+    options: &ReadOptions,
+    sink: &mut impl ItemSink,
+) -> Result<(ProgramInfo, Vec<Diagnostic>), E> {
+    let mut scan = prescan::Prescanner::default();
+    windows(&mut |w, last| scan.window(&w.text, w.base, last))?;
+    let pre = scan.finish();
     let known = match options.arc_sense {
         Some(s) => Some(SensePlan::Known(s, ArcSenseOrigin::Option)),
         None => pre.cam.and_then(|c| c.arc_sense().map(|s| SensePlan::Known(s, ArcSenseOrigin::CamSystem(c)))),
     };
     let plan = match known {
         Some(plan) => plan,
-        None if pre.arc_records > 0 => pass(source.text(), options, &pre, SensePlan::Survey, &mut Discard).2.plan(),
+        None if pre.arc_records > 0 => {
+            let mut discard = Discard;
+            let mut survey = Pass::new(Builder::new(&mut discard, options, &pre, SensePlan::Survey));
+            windows(&mut |w, last| survey.window(w, last))?;
+            survey.b.finish(len).2.plan()
+        }
         None => SensePlan::Unknown { ccw: 0, cw: 0 },
     };
-    let (info, diagnostics, _) = pass(source.text(), options, &pre, plan, sink);
-    (info, diagnostics)
+    let mut reading = Pass::new(Builder::new(sink, options, &pre, plan));
+    windows(&mut |w, last| reading.window(w, last))?;
+    let (info, diagnostics, _) = reading.b.finish(len);
+    Ok((info, diagnostics))
 }
 
-/// One reading pass.
-fn pass(
-    src: &str,
-    options: &ReadOptions,
-    pre: &Prescan,
-    sense: SensePlan,
-    sink: &mut impl ItemSink,
-) -> (ProgramInfo, Vec<Diagnostic>, SenseVotes) {
-    let mut b = Builder::new(src, sink, options, pre, sense);
-    let mut splitter = Splitter::new(src);
-    // The arguments of the plain GOTO lines the splitter reads on the way.
-    let mut goto = syntax::Args::new();
-    while let Some(unit) = splitter.next_with(&mut goto) {
-        b.unit(unit, &goto);
+/// A window of the text: its offset in the whole and the line breaks before it.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Window {
+    pub(crate) text: Arc<String>,
+    pub(crate) base: usize,
+    pub(crate) lines_before: usize,
+}
+
+/// A reading pass over a text that may come in windows.
+pub(crate) struct Pass<'s, S> {
+    b: Builder<'s, S>,
+    /// A statement has been read: no more NX listing header lines.
+    seen_statement: bool,
+}
+
+impl<'s, S: ItemSink> Pass<'s, S> {
+    fn new(b: Builder<'s, S>) -> Self {
+        Pass { b, seen_statement: false }
     }
-    b.finish()
+
+    /// Reads the units of `w` (`last`: it ends the text); returns where it stopped in the
+    /// window: its end, or the start of a unit that runs to the end of the window and may go on
+    /// in the next one (read again from there).
+    pub(crate) fn window(&mut self, w: &Window, last: bool) -> usize {
+        self.b.set_window(w);
+        let text = w.text.as_str();
+        let mut splitter = Splitter::resume(text, 0, self.seen_statement);
+        // The arguments of the plain GOTO lines the splitter reads on the way.
+        let mut goto = syntax::Args::new();
+        loop {
+            let (before, seen) = (splitter.pos(), splitter.seen_statement());
+            let Some(unit) = splitter.next_with(&mut goto) else { break };
+            if !last && splitter.pos() >= text.len() {
+                self.seen_statement = seen;
+                return before;
+            }
+            self.b.unit(unit.shifted(w.base), &goto);
+        }
+        self.seen_statement = splitter.seen_statement();
+        text.len()
+    }
 }
 
 /// At most this many diagnostics are kept; the rest are counted.
@@ -140,7 +196,6 @@ struct PendingNurbs {
 }
 
 struct Builder<'s, S> {
-    src: &'s str,
     sink: &'s mut S,
     diags: Vec<Diagnostic>,
     suppressed: usize,
@@ -182,6 +237,9 @@ struct Builder<'s, S> {
     cycle_return: Option<ReturnPlane>,
     fini_at: Option<Span>,
     warned_after_fini: bool,
+    /// The window of the text being read, and the one before it (for the lines of messages).
+    window: Window,
+    previous_window: Option<Window>,
     feed_unit_conflicts: usize,
     apt_source_statements: usize,
     first_apt_source: Option<Span>,
@@ -190,9 +248,8 @@ struct Builder<'s, S> {
 }
 
 impl<'s, S: ItemSink> Builder<'s, S> {
-    fn new(src: &'s str, sink: &'s mut S, options: &ReadOptions, pre: &Prescan, sense: SensePlan) -> Self {
+    fn new(sink: &'s mut S, options: &ReadOptions, pre: &Prescan, sense: SensePlan) -> Self {
         let mut b = Builder {
-            src,
             sink,
             diags: Vec::new(),
             suppressed: 0,
@@ -226,6 +283,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             cycle_return: None,
             fini_at: None,
             warned_after_fini: false,
+            window: Window::default(),
+            previous_window: None,
             feed_unit_conflicts: 0,
             apt_source_statements: 0,
             first_apt_source: None,
@@ -279,6 +338,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
 
     // ----- units of the file ---------------------------------------------------------------
 
+    /// A unit of the text.
     fn unit(&mut self, unit: RawUnit<'_>, goto: &[Arg<'_>]) {
         match unit {
             RawUnit::Statement(rec) => self.record(&rec, goto),
@@ -290,6 +350,24 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 self.emit(span, kind);
             }
             RawUnit::Listing => self.info.listing_lines += 1,
+        }
+    }
+
+    /// The 1-based line of an offset of the text read so far (for messages: in the window being
+    /// read or the one before it; 0 beyond them).
+    fn line_of(&self, offset: usize) -> usize {
+        [Some(&self.window), self.previous_window.as_ref()]
+            .into_iter()
+            .flatten()
+            .find(|w| offset >= w.base && offset <= w.base + w.text.len())
+            .map_or(0, |w| w.lines_before + line_of(&w.text, offset - w.base))
+    }
+
+    /// The next window of the text.
+    fn set_window(&mut self, w: &Window) {
+        let previous = std::mem::replace(&mut self.window, w.clone());
+        if previous.base != w.base || previous.text.len() != w.text.len() {
+            self.previous_window = Some(previous);
         }
     }
 
@@ -311,7 +389,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 )
                 .with_help(format!(
                     "FINI is at line {}; everything after it is read too",
-                    line_of(self.src, fini.start as usize)
+                    self.line_of(fini.start as usize)
                 )),
             );
         }
@@ -1318,7 +1396,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         self.carry(cx, st, false);
     }
 
-    fn finish(mut self) -> (ProgramInfo, Vec<Diagnostic>, SenseVotes) {
+    /// The end of the text, `len` bytes long.
+    fn finish(mut self, len: usize) -> (ProgramInfo, Vec<Diagnostic>, SenseVotes) {
         self.finish_nurbs();
         self.arc_arrival(None);
         self.flush_cycle();
@@ -1370,7 +1449,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
                 severity: if self.diags.iter().any(Diagnostic::is_error) { Severity::Error } else { Severity::Warning },
                 code: "cl::too-many",
                 message: format!("{n} more diagnostics not kept"),
-                span: Span::new(self.src.len(), self.src.len()),
+                span: Span::new(len, len),
                 label: "limit reached".into(),
                 help: None,
                 word: None,

@@ -34,74 +34,116 @@ pub(super) struct Prescan {
 }
 
 /// Scans `src` once.
+#[cfg(test)]
 pub(super) fn prescan(src: &str) -> Prescan {
-    let bytes = src.as_bytes();
-    let mut units: Option<UnitsInfo> = None;
-    let mut feed_hint: Option<UnitsInfo> = None;
-    let mut cam = CamEvidence::default();
-    let mut arc_records = 0;
-    let mut seen_statement = false;
-    let mut continued = false;
-    let mut pos = 0;
-    while pos < bytes.len() {
-        // A line ends at `\n`, `\r\n` or a lone `\r`, as for the reader.
-        let start = pos;
-        let line_end = memchr::memchr2(b'\n', b'\r', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
-        pos = match bytes.get(line_end) {
-            Some(b'\r') if bytes.get(line_end + 1) == Some(&b'\n') => line_end + 2,
-            Some(_) => line_end + 1,
-            None => line_end,
-        };
-        let line = &bytes[start..line_end];
-        // A continuation line belongs to the record (or comment) before it.
-        let was_continued = std::mem::replace(&mut continued, ends_with_single_dollar(line));
-        let Some(lead) = line.iter().position(|&c| c != b' ' && c != b'\t') else { continue };
-        if was_continued {
-            continue;
-        }
-        let first = line[lead];
-        if first == b'$' && line.get(lead + 1) == Some(&b'$') {
-            cam.comment(&src[start + lead..line_end]);
-            continue;
-        }
-        let upper = first.to_ascii_uppercase();
-        let wanted_units = units.is_none() && (upper == b'U' || upper == b'F' && feed_hint.is_none());
-        let wanted = wanted_units || matches!(upper, b'B' | b'C' | b'M' | b'O' | b'P' | b'R' | b'T');
-        // Past the header, a line that starts with a character no word of interest (nor the
-        // listing footer) starts with is passed at once: most lines, GOTOs.
-        if seen_statement && !wanted && first.is_ascii_graphic() {
-            continue;
-        }
-        let line = &src[start..line_end];
-        if is_listing_line(line, seen_statement) {
-            cam.vote(CamSystem::SiemensNx);
-            continue;
-        }
-        seen_statement = true;
-        if !wanted {
-            continue;
-        }
-        let Some(seen) = classify(src, start, line) else { continue };
-        match seen.word {
-            Word::Units => {
-                if let Some(unit) = seen.unit {
-                    units.get_or_insert(UnitsInfo { unit, origin: UnitsOrigin::Declared(seen.span) });
+    let mut scan = Prescanner::default();
+    scan.window(src, 0, true);
+    scan.finish()
+}
+
+/// The pre-scan over a text that comes in windows (each ending at a line end; see
+/// [`crate::ClFile`]).
+#[derive(Default)]
+pub(super) struct Prescanner {
+    units: Option<UnitsInfo>,
+    feed_hint: Option<UnitsInfo>,
+    cam: CamEvidence,
+    arc_records: usize,
+    seen_statement: bool,
+    /// The line before ends with a continuation `$`.
+    continued: bool,
+}
+
+impl Prescanner {
+    /// Scans the lines of `src`, the window of the text at offset `base` (`last`: it ends the
+    /// text); returns where it stopped in `src`: the end, or the start of a continued record
+    /// that runs past the window, which comes again at the start of the next one.
+    pub(super) fn window(&mut self, src: &str, base: usize, last: bool) -> usize {
+        let bytes = src.as_bytes();
+        let mut pos = 0;
+        while pos < bytes.len() {
+            // A line ends at `\n`, `\r\n` or a lone `\r`, as for the reader.
+            let start = pos;
+            let line_end = memchr::memchr2(b'\n', b'\r', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
+            pos = match bytes.get(line_end) {
+                Some(b'\r') if bytes.get(line_end + 1) == Some(&b'\n') => line_end + 2,
+                Some(_) => line_end + 1,
+                None => line_end,
+            };
+            let line = &bytes[start..line_end];
+            // A continuation line belongs to the record (or comment) before it.
+            let was_continued = std::mem::replace(&mut self.continued, ends_with_single_dollar(line));
+            let Some(lead) = line.iter().position(|&c| c != b' ' && c != b'\t') else { continue };
+            if was_continued {
+                continue;
+            }
+            let first = line[lead];
+            if first == b'$' && line.get(lead + 1) == Some(&b'$') {
+                self.cam.comment(&src[start + lead..line_end]);
+                continue;
+            }
+            let upper = first.to_ascii_uppercase();
+            let units_open = self.units.is_none();
+            let wanted_units = units_open && (upper == b'U' || upper == b'F' && self.feed_hint.is_none());
+            let wanted = wanted_units || matches!(upper, b'B' | b'C' | b'M' | b'O' | b'P' | b'R' | b'T');
+            // Past the header, a line that starts with a character no word of interest (nor the
+            // listing footer) starts with is passed at once: most lines, GOTOs.
+            if self.seen_statement && !wanted && first.is_ascii_graphic() {
+                continue;
+            }
+            let line = &src[start..line_end];
+            if is_listing_line(line, self.seen_statement) {
+                self.cam.vote(CamSystem::SiemensNx);
+                continue;
+            }
+            if !wanted {
+                self.seen_statement = true;
+                continue;
+            }
+            let Some(seen) = (match classify(src, start, line, last) {
+                Classified::Seen(seen) => Some(seen),
+                Classified::Nothing => None,
+                // The record runs past the window: this line again, with the next window.
+                Classified::PastWindow => {
+                    self.continued = was_continued;
+                    return start;
                 }
+            }) else {
+                self.seen_statement = true;
+                continue;
+            };
+            self.seen_statement = true;
+            let span = Span { start: seen.span.start + base as u32, ..seen.span };
+            match seen.word {
+                Word::Units => {
+                    if let Some(unit) = seen.unit {
+                        self.units.get_or_insert(UnitsInfo { unit, origin: UnitsOrigin::Declared(span) });
+                    }
+                }
+                Word::Fedrat if self.feed_hint.is_none() => {
+                    self.feed_hint = seen.unit.map(|unit| UnitsInfo { unit, origin: UnitsOrigin::FeedWord(span) });
+                }
+                Word::Circle => self.arc_records += 1,
+                Word::Movarc => self.arc_records += 1,
+                _ => {}
             }
-            Word::Fedrat if feed_hint.is_none() => {
-                feed_hint = seen.unit.map(|unit| UnitsInfo { unit, origin: UnitsOrigin::FeedWord(seen.span) });
+            match seen.cam {
+                Some(Evidence::Header(c)) => self.cam.header(c),
+                Some(Evidence::Vote(c)) => self.cam.vote(c),
+                None => {}
             }
-            Word::Circle => arc_records += 1,
-            Word::Movarc => arc_records += 1,
-            _ => {}
         }
-        match seen.cam {
-            Some(Evidence::Header(c)) => cam.header(c),
-            Some(Evidence::Vote(c)) => cam.vote(c),
-            None => {}
+        bytes.len()
+    }
+
+    /// What the scan found.
+    pub(super) fn finish(self) -> Prescan {
+        Prescan {
+            units: self.units.or(self.feed_hint).unwrap_or_default(),
+            cam: self.cam.decide(),
+            arc_records: self.arc_records,
         }
     }
-    Prescan { units: units.or(feed_hint).unwrap_or_default(), cam: cam.decide(), arc_records }
 }
 
 /// What one statement tells the pre-scan.
@@ -120,21 +162,38 @@ enum Evidence {
 }
 
 /// The statement that starts on the physical line `line` (at `start` in `src`).
-fn classify(src: &str, start: usize, line: &str) -> Option<Seen> {
+/// What a line of interest is.
+enum Classified {
+    Seen(Seen),
+    Nothing,
+    /// A continued record that runs to the end of the window: it may go on in the next one.
+    PastWindow,
+}
+
+fn classify(src: &str, start: usize, line: &str, last: bool) -> Classified {
     let units_word =
         line.trim_start().as_bytes().first().is_some_and(|c| matches!(c.to_ascii_uppercase(), b'U' | b'F'));
+    let mut buf = syntax::Args::new();
     // UNITS and FEDRAT go through the splitter for the exact span the summary reports.
     if !line.contains('$') && !units_word {
         // The whole record is on this line.
-        let mut buf = syntax::Args::new();
-        let st = syntax::statement(line, &mut buf).ok()?;
-        return Some(seen(&st, Span::new(start, start + line.len())));
+        return match syntax::statement(line, &mut buf) {
+            Ok(st) => Classified::Seen(seen(&st, Span::new(start, start + line.len()))),
+            Err(_) => Classified::Nothing,
+        };
     }
     // A continued record (or one with a trailing comment): as the reader will join it.
-    let Some(RawUnit::Statement(rec)) = Splitter::at(src, start).next() else { return None };
+    let mut splitter = Splitter::at(src, start);
+    let unit = splitter.next();
+    if !last && splitter.pos() >= src.len() {
+        return Classified::PastWindow;
+    }
+    let Some(RawUnit::Statement(rec)) = unit else { return Classified::Nothing };
     let mut buf = syntax::Args::new();
-    let st = syntax::statement(&rec.text, &mut buf).ok()?;
-    Some(seen(&st, rec.span))
+    match syntax::statement(&rec.text, &mut buf) {
+        Ok(st) => Classified::Seen(seen(&st, rec.span)),
+        Err(_) => Classified::Nothing,
+    }
 }
 
 fn seen(st: &Statement<'_>, span: Span) -> Seen {

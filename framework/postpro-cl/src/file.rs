@@ -1,0 +1,337 @@
+//! A CL file read in windows, never held whole: what the main job reads (three times) with memory
+//! that does not grow with the file. Each pass over it (the pre-scan, the reading) asks for its
+//! windows in order; a window ends at a line end, and what a pass has not finished of it (a
+//! record that runs past its end) starts the next. The text is that of [`Source::from_bytes`]:
+//! UTF-8 if the whole file is, else Latin-1, so spans, lines and columns are the same as a
+//! [`Source`]'s of the same file.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+use std::time::SystemTime;
+
+use crate::read::{ItemSink, ReadOptions, Window, read_windows};
+use crate::span::{LineCol, Locate, Source};
+use crate::{Diagnostic, Error, ProgramInfo};
+
+/// The size of a window (a record longer than that makes it grow).
+const WINDOW: usize = 4 << 20;
+/// The size of a read.
+const BLOCK: usize = 1 << 20;
+/// The text between two line-and-column checkpoints (about; each is at a line start).
+const STRIDE: usize = 64 << 10;
+
+/// A CL file on disk, read in windows.
+#[derive(Debug)]
+pub struct ClFile {
+    path: PathBuf,
+    name: String,
+    latin1: bool,
+    len: usize,
+    /// The file's length and modification time when opened: every reading checks them.
+    stamp: (u64, Option<SystemTime>),
+    /// The size of a window (and the most read at once).
+    window: usize,
+    /// Line starts about [`STRIDE`] apart, for line and column look-ups (found on the first).
+    checkpoints: OnceLock<Vec<Checkpoint>>,
+}
+
+/// A line start: its offset in the text and in the file, and the line breaks before it.
+#[derive(Clone, Copy, Debug, Default)]
+struct Checkpoint {
+    text: usize,
+    file: u64,
+    lines_before: usize,
+}
+
+impl ClFile {
+    /// Opens `path` and finds its encoding and length (one pass over it).
+    pub fn open(path: &Path) -> Result<ClFile, Error> {
+        let name = path.display().to_string();
+        let io = |source| Error::Io { path: name.clone(), source };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let stamp = stamp_of(&file).map_err(io)?;
+        let (mut bytes, mut high, mut utf8) = (0u64, 0u64, true);
+        let mut pending: Vec<u8> = Vec::new();
+        let mut block = vec![0u8; BLOCK];
+        loop {
+            let n = file.read(&mut block).map_err(io)?;
+            if n == 0 {
+                break;
+            }
+            let data = &block[..n];
+            bytes += n as u64;
+            high += data.iter().filter(|&&b| b >= 0x80).count() as u64;
+            if utf8 {
+                pending.extend_from_slice(data);
+                match std::str::from_utf8(&pending) {
+                    Ok(_) => pending.clear(),
+                    // A sequence cut by the block's end: kept for the next block.
+                    Err(e) if e.error_len().is_none() => {
+                        pending.drain(..e.valid_up_to());
+                    }
+                    Err(_) => utf8 = false,
+                }
+            }
+        }
+        if !pending.is_empty() {
+            utf8 = false;
+        }
+        if bytes != stamp.0 {
+            return Err(Error::Changed { path: name });
+        }
+        let len = if utf8 { bytes } else { bytes + high };
+        if len > Source::MAX_LEN as u64 {
+            return Err(Error::TooLarge { path: name, size: len });
+        }
+        Ok(ClFile {
+            path: path.to_path_buf(),
+            name,
+            latin1: !utf8,
+            len: len as usize,
+            stamp,
+            window: WINDOW,
+            checkpoints: OnceLock::new(),
+        })
+    }
+
+    /// The same file read in windows of about `bytes` (for tests of the window boundaries).
+    #[doc(hidden)]
+    pub fn with_window(self, bytes: usize) -> ClFile {
+        ClFile { window: bytes.max(1), checkpoints: OnceLock::new(), ..self }
+    }
+
+    /// The name shown in diagnostics (the path).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The length of the text (bytes of UTF-8).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True for an empty file.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The whole text, for showing a diagnostic with its lines (read again).
+    pub fn source(&self) -> Result<Source, Error> {
+        let source = Source::from_path(&self.path)?;
+        if source.text().len() != self.len {
+            return Err(Error::Changed { path: self.name.clone() });
+        }
+        Ok(source)
+    }
+
+    /// Reads the file with options, handing each item to `sink` as soon as it is complete, as
+    /// [`crate::read_into_with`] reads a [`Source`], with the same items and diagnostics.
+    pub fn read_into_with(
+        &self,
+        options: &ReadOptions,
+        sink: &mut impl ItemSink,
+    ) -> Result<(ProgramInfo, Vec<Diagnostic>), Error> {
+        read_windows(|each| self.windows_from(Checkpoint::default(), self.window, each), self.len, options, sink)
+    }
+
+    /// Line and column of an offset of the text (1-based); reads about [`STRIDE`] bytes of the
+    /// file (the first look-up also reads the whole file once, for the checkpoints). An offset
+    /// past the end is taken as the end; line 0 if the file cannot be read.
+    pub fn line_col(&self, offset: usize) -> LineCol {
+        let offset = offset.min(self.len);
+        let Some(points) = self.checkpoints() else { return LineCol { line: 0, column: 0 } };
+        let k = points.partition_point(|p| p.text <= offset);
+        let from = k.checked_sub(1).and_then(|k| points.get(k)).copied().unwrap_or_default();
+        let mut found = LineCol { line: 0, column: 0 };
+        let mut look = |w: &Window, last: bool| {
+            if offset >= w.base + w.text.len() && !last {
+                return w.text.len();
+            }
+            let lc = Source::new("", w.text.as_str()).line_col(offset - w.base);
+            found = LineCol { line: w.lines_before + lc.line, column: lc.column };
+            w.text.len() + 1 // found: stop
+        };
+        let _ = self.windows_from(from, STRIDE, &mut look);
+        found
+    }
+
+    /// `name:line:column` of an offset of the text.
+    pub fn location(&self, offset: usize) -> String {
+        Locate::location(self, offset)
+    }
+
+    /// The checkpoints, found by reading the file once (`None` if it cannot be read).
+    fn checkpoints(&self) -> Option<&[Checkpoint]> {
+        if let Some(points) = self.checkpoints.get() {
+            return Some(points);
+        }
+        let mut points: Vec<Checkpoint> = Vec::new();
+        let mut record = |w: &Window, _: bool| {
+            let text = w.text.as_str();
+            let (mut at, mut lines_before) = (0, w.lines_before);
+            loop {
+                points.push(Checkpoint { text: w.base + at, file: 0, lines_before });
+                let Some(next) = line_start_after(text, at + STRIDE) else { break };
+                lines_before += line_breaks(&text[at..next]);
+                at = next;
+            }
+            text.len()
+        };
+        self.windows_from(Checkpoint::default(), self.window, &mut record).ok()?;
+        self.with_file_offsets(&mut points).ok()?;
+        Some(self.checkpoints.get_or_init(|| points))
+    }
+
+    /// Sets the file offset of each checkpoint.
+    fn with_file_offsets(&self, points: &mut [Checkpoint]) -> Result<(), Error> {
+        if !self.latin1 {
+            points.iter_mut().for_each(|p| p.file = p.text as u64);
+            return Ok(());
+        }
+        // Latin-1: a byte from 0x80 up is two bytes of text.
+        let io = |source| Error::Io { path: self.name.clone(), source };
+        let mut file = std::fs::File::open(&self.path).map_err(io)?;
+        let mut block = vec![0u8; BLOCK];
+        let (mut text, mut file_offset) = (0usize, 0u64);
+        let mut wanted = points.iter_mut().peekable();
+        loop {
+            let n = file.read(&mut block).map_err(io)?;
+            for &b in &block[..n] {
+                while let Some(p) = wanted.next_if(|p| p.text <= text) {
+                    p.file = file_offset;
+                }
+                text += if b >= 0x80 { 2 } else { 1 };
+                file_offset += 1;
+            }
+            if n == 0 {
+                wanted.for_each(|p| p.file = file_offset);
+                return Ok(());
+            }
+        }
+    }
+
+    /// The windows of the text from checkpoint `from`, in order, each of about `size` bytes
+    /// (see the module's documentation); `each` says how much of a window it is done with, or
+    /// stops the walk by returning more than the window's length.
+    fn windows_from(
+        &self,
+        from: Checkpoint,
+        size: usize,
+        each: &mut dyn FnMut(&Window, bool) -> usize,
+    ) -> Result<(), Error> {
+        let io = |source| Error::Io { path: self.name.clone(), source };
+        let changed = || Error::Changed { path: self.name.clone() };
+        let mut file = std::fs::File::open(&self.path).map_err(io)?;
+        if stamp_of(&file).map_err(io)? != self.stamp {
+            return Err(changed());
+        }
+        if from.file > 0 {
+            std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(from.file)).map_err(io)?;
+        }
+        let (mut base, mut lines_before) = (from.text, from.lines_before);
+        let mut raw: Vec<u8> = Vec::with_capacity(BLOCK.min(size));
+        let mut carry = String::new();
+        let mut eof = false;
+        let mut want = size;
+        let mut block = vec![0u8; BLOCK.min(size)];
+        loop {
+            // Whole lines up to the window's size (or to the end of the file).
+            while carry.len() < want && !eof {
+                let n = file.read(&mut block).map_err(io)?;
+                raw.extend_from_slice(&block[..n]);
+                eof = n == 0;
+                let cut = if eof { raw.len() } else { last_line_end(&raw) };
+                self.decode(&raw[..cut], &mut carry);
+                raw.drain(..cut);
+            }
+            let last = eof && raw.is_empty();
+            if last && base + carry.len() != self.len {
+                return Err(changed());
+            }
+            let window = Window { text: Arc::new(std::mem::take(&mut carry)), base, lines_before };
+            let done = each(&window, last);
+            let text = window.text.as_str();
+            if last || done > text.len() {
+                return Ok(());
+            }
+            if done == 0 {
+                // A record longer than the window: a larger one.
+                want = want.saturating_mul(2);
+                carry = text.to_string();
+                continue;
+            }
+            lines_before += line_breaks(&text[..done]);
+            base += done;
+            carry = text[done..].to_string();
+            want = size.max(carry.len() * 2);
+        }
+    }
+
+    /// Appends the text of `bytes` (whole lines) to `out`.
+    fn decode(&self, bytes: &[u8], out: &mut String) {
+        match std::str::from_utf8(bytes) {
+            Ok(text) if !self.latin1 => out.push_str(text),
+            _ => out.extend(bytes.iter().map(|&b| char::from(b))),
+        }
+    }
+}
+
+impl Locate for ClFile {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn line_col(&self, offset: usize) -> LineCol {
+        ClFile::line_col(self, offset)
+    }
+}
+
+/// The length and modification time of an open file.
+fn stamp_of(file: &std::fs::File) -> std::io::Result<(u64, Option<SystemTime>)> {
+    let meta = file.metadata()?;
+    Ok((meta.len(), meta.modified().ok()))
+}
+
+/// The first line start of `text` after `from` (a line start at `from` itself is passed over),
+/// or `None` at or past the end.
+fn line_start_after(text: &str, from: usize) -> Option<usize> {
+    let bytes = text.as_bytes();
+    let i = from + memchr::memchr2(b'\n', b'\r', bytes.get(from..)?)?;
+    let next = if bytes[i] == b'\r' && bytes.get(i + 1) == Some(&b'\n') { i + 2 } else { i + 1 };
+    (next < bytes.len()).then_some(next)
+}
+
+/// Where the last whole line of `raw` ends (after its `\n`, `\r\n` or lone `\r`; a `\r` at the
+/// very end may be the first half of a `\r\n`), or 0.
+fn last_line_end(raw: &[u8]) -> usize {
+    let mut end = raw.len();
+    while let Some(i) = memchr::memrchr2(b'\n', b'\r', &raw[..end]) {
+        if raw[i] == b'\n' || i + 1 < raw.len() {
+            return i + 1;
+        }
+        end = i;
+    }
+    0
+}
+
+/// The line breaks in `text` (`\n`, `\r\n` and a lone `\r` each one).
+fn line_breaks(text: &str) -> usize {
+    let bytes = text.as_bytes();
+    let lone_cr = memchr::memchr_iter(b'\r', bytes).filter(|&k| bytes.get(k + 1) != Some(&b'\n')).count();
+    memchr::memchr_iter(b'\n', bytes).count() + lone_cr
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_line_end_is_never_cut_in_two() {
+        assert_eq!(last_line_end(b"ab\ncd"), 3);
+        assert_eq!(last_line_end(b"ab\r\ncd\r"), 4);
+        assert_eq!(last_line_end(b"ab\rcd"), 3);
+        assert_eq!(last_line_end(b"abcd"), 0);
+        assert_eq!(line_breaks("a\r\nb\rc\nd"), 3);
+    }
+}
