@@ -3,11 +3,10 @@
 //! temporary file renamed over the target: an error never leaves a partial program, nor
 //! clobbers an existing one).
 
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use postpro_emit::{Dialect, EmitError, Mode, Options, builtin_template, dialect, write_program};
 
 use crate::job::fail;
@@ -15,9 +14,6 @@ use crate::predict::{self, MarkArgs, PredictionArgs};
 use crate::report;
 use crate::setup::SetupArgs;
 use crate::solve::{IktArgs, MachineArgs};
-
-/// CL files above this size get a progress indicator on a terminal.
-const PROGRESS_BYTES: usize = 4 << 20;
 
 /// Arguments of the main job.
 #[derive(Debug, clap::Args)]
@@ -217,25 +213,6 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         TcpOrientationArg::Vectors => postpro_emit::TcpOrientation::Vectors,
     };
 
-    let big = std::fs::metadata(file).is_ok_and(|m| m.len() as usize > PROGRESS_BYTES);
-    let progress = (std::io::stderr().is_terminal() && big).then(|| {
-        let bar = ProgressBar::new_spinner();
-        bar.set_style(
-            ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
-                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-        );
-        bar.enable_steady_tick(std::time::Duration::from_millis(120));
-        bar
-    });
-    let stage = |msg: &str| {
-        if let Some(bar) = &progress {
-            if msg.is_empty() {
-                bar.finish_and_clear();
-            } else {
-                bar.set_message(msg.to_string());
-            }
-        }
-    };
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
     let request = crate::stream::Request {
         file,
@@ -258,7 +235,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
         timing: args.timing,
     };
-    crate::stream::run(&request, &stage)
+    crate::stream::run(&request)
 }
 
 /// The dialect can write `mode` (and, in TCP mode, the orientation as asked), or the rendered

@@ -13,6 +13,7 @@ mod machines;
 mod orient;
 mod plot;
 mod predict;
+mod progress;
 mod report;
 mod setup;
 mod solve;

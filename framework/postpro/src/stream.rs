@@ -32,8 +32,9 @@ use postpro_predict::moves::Reader;
 use postpro_predict::{Blocks, MarkFinder, Predictor};
 
 use crate::emit::ModeArg;
-use crate::job::{Shapes, WRITTEN, fail, warn_all};
+use crate::job::{Shapes, WRITTEN, warn_all};
 use crate::predict::{MarkArgs, PredictionArgs};
+use crate::progress::Progress;
 use crate::report;
 use crate::setup::SetupArgs;
 use crate::solve::{Chosen, IktArgs};
@@ -129,6 +130,19 @@ impl ItemSink for SurveySink<'_> {
                 return;
             }
         }
+    }
+}
+
+/// A sink that tells the progress bar how far the reading has come.
+struct Counting<'a, S> {
+    sink: &'a mut S,
+    progress: &'a Progress,
+}
+
+impl<S: ItemSink> ItemSink for Counting<'_, S> {
+    fn push(&mut self, item: Item) {
+        self.progress.item(item.span.end() as u64);
+        self.sink.push(item);
     }
 }
 
@@ -269,15 +283,19 @@ impl MotionSink for Checked<'_> {
     }
 }
 
-/// The main job, streamed (see the module's documentation); `stage` is told what is being done
-/// (`""` when done).
-pub(crate) fn run(request: &Request<'_>, stage: &dyn Fn(&str)) -> ExitCode {
-    let code = main_job(request, stage).unwrap_or_else(|code| code);
-    stage("");
+/// The main job, streamed (see the module's documentation), with a progress bar on a terminal.
+pub(crate) fn run(request: &Request<'_>) -> ExitCode {
+    // The passes' shares of the time, as measured on a million CL points (survey 0.5 s,
+    // prediction 4.4 s, writing 3.3 s).
+    let progress = Progress::on_stderr(&[1, 8, 6]);
+    let code = main_job(request, &progress).unwrap_or_else(|code| code);
+    progress.finish();
     code
 }
 
-fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCode> {
+fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode> {
+    // What is printed while the bar may be on the screen is printed with the bar put away.
+    let fail = |message: &str, code: u8| progress.suspend(|| crate::job::fail(message, code));
     let (dialect, output) = (how.dialect, how.output);
     let mut machine = how.chosen.machine.clone();
     if let Err(message) = how.ikt.apply(&mut machine) {
@@ -294,6 +312,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         );
     }
     let file = ClFile::open(how.file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
+    progress.set_len(file.len() as u64);
     let read_options = how.setup.read.options();
     // Linear travels are checked on the program, in the work offset's frame, once it is built:
     // the kinematics' machine coordinates are those of the definition's assumed part zero.
@@ -313,22 +332,23 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
     };
 
     // 1. The survey.
-    stage("reading");
+    progress.pass(0, "reading");
     let started = std::time::Instant::now();
-    let surveyed = survey(&file, &read_options, kin, policy, setup.tool_table.as_ref());
+    let surveyed = survey(&file, &read_options, kin, policy, setup.tool_table.as_ref(), progress);
     let surveyed = surveyed.map_err(|e| render(PassError::Read(e)))?;
     if surveyed.diagnostics.iter().any(postpro_cl::Diagnostic::is_error) {
         // The text is read whole to show the errors with their lines.
-        match file.source() {
+        progress.suspend(|| match file.source() {
             Ok(source) => {
                 surveyed.diagnostics.iter().filter(|d| d.is_error()).for_each(|d| eprint!("{}", d.render(&source)))
             }
             Err(e) => eprintln!("error: {e}"),
-        }
+        });
         return Err(fail(&format!("error: {} does not read; {WRITTEN}\n", file.name()), 1));
     }
     let strict = how.setup.strict;
-    let mut warnings = crate::job::report_reading(&file, (&surveyed.info, &surveyed.diagnostics), strict, true);
+    let mut warnings =
+        progress.suspend(|| crate::job::report_reading(&file, (&surveyed.info, &surveyed.diagnostics), strict, true));
     if !surveyed.moves {
         let why = if surveyed.info.apt_source {
             "it is an APT part program (source language: geometry and motion statements for an APT processor), \
@@ -345,17 +365,17 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         let rendered = render_in(e, &file);
         fail(&format!("{rendered}error: {WRITTEN}\n"), 1)
     })?;
-    warnings += warn_all(&file, &surveyed.tool_warnings, strict);
+    warnings += progress.suspend(|| warn_all(&file, &surveyed.tool_warnings, strict));
     if strict && warnings > 0 {
         return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
     }
     if let Some(e) = surveyed.graph_error.clone() {
         return Err(render(PassError::Solve(e)));
     }
-    crate::emit::check_writing(dialect, mode, how.tcp_orientation)?;
+    progress.suspend(|| crate::emit::check_writing(dialect, mode, how.tcp_orientation))?;
 
     // 2. The prediction, and the survey of the steps.
-    stage(if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });
+    progress.pass(1, if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });
     let surveyed_at = started.elapsed();
     let unknown: BTreeSet<String> =
         surveyed.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
@@ -375,16 +395,17 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         Some(p) => p,
         None => &mut dropped,
     };
-    let predicted = Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown }.run(
-        &motion_options,
-        SetUps::default(),
-        (&surveyed.choice, None),
-        true,
-        sink,
-    );
+    let predicted =
+        Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown, progress }.run(
+            &motion_options,
+            SetUps::default(),
+            (&surveyed.choice, None),
+            true,
+            sink,
+        );
     let Passed { summary, survey, shape } = predicted.map_err(render)?;
     let survey = survey.unwrap_or_default();
-    let warnings = warn_all(&file, &summary.warnings, strict);
+    let warnings = progress.suspend(|| warn_all(&file, &summary.warnings, strict));
     if strict && warnings > 0 {
         return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
     }
@@ -398,9 +419,11 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         (Some(mut p), Some((args, _))) => {
             let done = p.predictor.finish(&p.blocks);
             p.take(done);
-            for note in &p.blocks.notes {
-                eprintln!("note: {}: prediction: {}", file.location(note.span.start as usize), note.text);
-            }
+            progress.suspend(|| {
+                for note in &p.blocks.notes {
+                    eprintln!("note: {}: prediction: {}", file.location(note.span.start as usize), note.text);
+                }
+            });
             let marks = p.marks.finish();
             let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
             let header = crate::predict::header((&totals, &operations), args, mode, &marks, (&machine, &file));
@@ -410,7 +433,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
     };
 
     // 3. The program.
-    stage("writing the program");
+    progress.pass(2, "writing the program");
     let predicted_at = started.elapsed();
     let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
     let options = Options {
@@ -432,7 +455,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         blocks: Vec::new(),
         summary: summary.clone(),
     };
-    let pass = Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown };
+    let pass = Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown, progress };
     let write = |out: &mut dyn Write| -> Result<(), Failure> {
         let mut scratch = ScratchFile::beside(output)?;
         let mut travel = Vec::new();
@@ -462,7 +485,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
             WriteError::Emit(e) => Failure::Emit(e),
             WriteError::Produce(e) => Failure::Pass(e),
         })?;
-        let count = warn_all(&file, &travel, strict);
+        let count = progress.suspend(|| warn_all(&file, &travel, strict));
         if strict && count > 0 {
             return Err(Failure::Refused(format!(
                 "error: {count} warning(s), and --strict makes them errors; {WRITTEN}\n"
@@ -489,6 +512,7 @@ fn main_job(how: &Request<'_>, stage: &dyn Fn(&str)) -> Result<ExitCode, ExitCod
         };
         return Err(fail(&message, 1));
     }
+    progress.finish();
     if how.timing {
         let total = started.elapsed();
         let seconds = total.as_secs_f64();
@@ -576,6 +600,7 @@ fn survey(
     kin: &dyn Kinematics,
     policy: &postpro_kin::Policy,
     table: Option<&postpro_machine::tools::ToolTable>,
+    progress: &Progress,
 ) -> Result<Surveyed, postpro_cl::Error> {
     let mut sink = SurveySink {
         graph: BranchGraph::new(kin, policy, None),
@@ -588,7 +613,7 @@ fn survey(
         inserts: (0, None),
         error: None,
     };
-    let (info, diagnostics) = file.read_into_with(read_options, &mut sink)?;
+    let (info, diagnostics) = file.read_into_with(read_options, &mut Counting { sink: &mut sink, progress })?;
     let SurveySink { graph, tooling, turns_tool, moves, inserts, error, .. } = sink;
     let (tooling, tool_warnings) = tooling.finish();
     Ok(Surveyed {
@@ -613,6 +638,7 @@ struct Pass<'a> {
     policy: &'a postpro_kin::Policy,
     job: &'a postpro_motion::Job,
     unknown: &'a BTreeSet<String>,
+    progress: &'a Progress,
 }
 
 impl Pass<'_> {
@@ -645,7 +671,8 @@ impl Pass<'_> {
             index: 0,
             error: None,
         };
-        self.file.read_into_with(self.read_options, &mut motions).map_err(PassError::Read)?;
+        let mut counting = Counting { sink: &mut motions, progress: self.progress };
+        self.file.read_into_with(self.read_options, &mut counting).map_err(PassError::Read)?;
         motions.finish()
     }
 }

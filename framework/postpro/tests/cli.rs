@@ -269,3 +269,14 @@ fn a_broken_machine_file_exits_1_with_its_location() {
     assert!(stderr(&o).contains("broken.yaml:"), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn no_progress_bar_is_drawn_when_standard_error_is_not_a_terminal() {
+    let out = std::env::temp_dir().join(format!("postpro-cli-progress-{}.nc", std::process::id()));
+    let o = postpro(&["--machine", "maho600e", "examples/cl/manta-5axis.cl", "-o", &out.to_string_lossy()]);
+    let _ = std::fs::remove_file(&out);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("wrote "), "{err}");
+    assert!(!err.contains('\r') && !err.contains('\u{1b}') && !err.contains("[=="), "{err:?}");
+}
