@@ -266,22 +266,27 @@ pub fn write_program_with<E>(
     let mut numbering = Numbering::default();
     let start = state.call_macro("program_start", &[]).map_err(err)?;
     let start_lines = start.matches('\n').count();
-    let mut body = Streaming {
-        state,
-        name,
-        dialect,
-        out: scratch,
-        shapes: HashMap::new(),
-        line: String::with_capacity(128),
-        numbered: String::with_capacity(128),
-        lines: start_lines,
-        numbering: Numbering { next: count_blocks(dialect, &start), ..Numbering::default() },
-        slowdowns: HashMap::new(),
+    // The body's lines go to the scratch; the scratch is free again once they are all there.
+    let (slowdowns, body_numbering, lines) = {
+        let mut body = Streaming {
+            state,
+            name,
+            dialect,
+            out: std::io::BufWriter::with_capacity(1 << 16, &mut *scratch),
+            shapes: HashMap::new(),
+            line: String::with_capacity(128),
+            numbered: String::with_capacity(128),
+            lines: start_lines,
+            numbering: Numbering { next: count_blocks(dialect, &start), ..Numbering::default() },
+            slowdowns: HashMap::new(),
+        };
+        let mut formatter = Formatter::new(machine, dialect, options, &mut body);
+        produce(&mut formatter).map_err(WriteError::Produce)?;
+        formatter.finish()?;
+        body.out.flush().map_err(io_error)?;
+        let Streaming { slowdowns, numbering, lines, .. } = body;
+        (slowdowns, numbering, lines)
     };
-    let mut formatter = Formatter::new(machine, dialect, options, &mut body);
-    produce(&mut formatter).map_err(WriteError::Produce)?;
-    formatter.finish()?;
-    let Streaming { slowdowns, numbering: body_numbering, lines, .. } = body;
     let end = state.call_macro("program_end", &[]).map_err(err)?;
     let start = if header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty()) {
         set_nc_lines(&mut header, |number| slowdowns.get(&number).copied());
@@ -361,7 +366,8 @@ struct Streaming<'s, 'env, 'o> {
     state: &'s minijinja::State<'s, 'env>,
     name: &'s str,
     dialect: &'s Dialect,
-    out: &'o mut dyn Scratch,
+    /// The scratch, a block of lines written at a time.
+    out: std::io::BufWriter<&'o mut dyn Scratch>,
     shapes: HashMap<String, Shape>,
     line: String,
     /// The line with its block number.
@@ -532,7 +538,7 @@ impl Streaming<'_, '_, '_> {
     /// counting the lines; returns the number of its first block, if numbered.
     fn write(&mut self, text: &str) -> Result<Option<u64>, EmitError> {
         self.lines += text.matches('\n').count() + 1;
-        let (out, dialect) = (&mut *self.out, self.dialect);
+        let (out, dialect) = (&mut self.out, self.dialect);
         if !dialect.numbered_blocks {
             for line in text.lines() {
                 check_length(line, dialect)?;
