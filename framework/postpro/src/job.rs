@@ -112,19 +112,14 @@ pub(crate) fn report_reading(
     warnings.len() + usize::from(!unknown.is_empty())
 }
 
-/// Reads `file` and solves it on `chosen` with `ikt` and `setup`, for the mode asked for in
-/// the dialect (`auto` decided on the tool path). `stage` is told what is being done; `nothing`
-/// ends the message when the file does not read ("nothing written").
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn prepare(
-    file: &Path,
+/// The machine of `chosen` with the policy options of `ikt`, its part placed as the set-up says,
+/// and the set-up; `nothing` ends the message when the set-up does not load.
+pub(crate) fn machine_and_setup(
     chosen: &Chosen,
     ikt: &IktArgs,
     setup: &SetupArgs,
-    (mode, dialect): (crate::emit::ModeArg, &Dialect),
     nothing: &str,
-    stage: &dyn Fn(&str),
-) -> Result<Job, ExitCode> {
+) -> Result<(Machine, JobSetup), ExitCode> {
     let mut machine = chosen.machine.clone();
     if let Err(message) = ikt.apply(&mut machine) {
         return Err(fail(&format!("error: {message}\n"), 2));
@@ -139,6 +134,23 @@ pub(crate) fn prepare(
             machine.name
         );
     }
+    Ok((machine, job_setup))
+}
+
+/// Reads `file` and solves it on `chosen` with `ikt` and `setup`, for the mode asked for in
+/// the dialect (`auto` decided on the tool path). `stage` is told what is being done; `nothing`
+/// ends the message when the file does not read ("nothing written").
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn prepare(
+    file: &Path,
+    chosen: &Chosen,
+    ikt: &IktArgs,
+    setup: &SetupArgs,
+    (mode, dialect): (crate::emit::ModeArg, &Dialect),
+    nothing: &str,
+    stage: &dyn Fn(&str),
+) -> Result<Job, ExitCode> {
+    let (machine, job_setup) = machine_and_setup(chosen, ikt, setup, nothing)?;
     let source = Source::from_path(file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
     stage("reading");
     let path = postpro_cl::read_with(&source, &setup.read.options());

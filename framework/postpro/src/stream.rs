@@ -297,20 +297,8 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
     // What is printed while the bar may be on the screen is printed with the bar put away.
     let fail = |message: &str, code: u8| progress.suspend(|| crate::job::fail(message, code));
     let (dialect, output) = (how.dialect, how.output);
-    let mut machine = how.chosen.machine.clone();
-    if let Err(message) = how.ikt.apply(&mut machine) {
-        return Err(fail(&format!("error: {message}\n"), 2));
-    }
-    let setup = how.setup.load().map_err(|message| fail(&format!("{message}error: {WRITTEN}\n"), 1))?;
-    if let Some(offset) = setup.part_origin
-        && !postpro_motion::frame::place_part(&mut machine, offset)
-    {
-        eprintln!(
-            "warning: {} carries no part on a rotary axis: the part origin of the set-up has no effect (the program \
-             is written from the part zero)",
-            machine.name
-        );
-    }
+    // Before the file is read: no bar on the screen yet.
+    let (machine, setup) = crate::job::machine_and_setup(how.chosen, how.ikt, how.setup, WRITTEN)?;
     let file = ClFile::open(how.file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
     progress.set_len(file.len() as u64);
     let read_options = how.setup.read.options();
