@@ -112,6 +112,10 @@ fn moves(path: &ToolPath) -> Vec<Move> {
     path.moves().map(|(m, _)| *m).collect()
 }
 
+fn frame_sources(path: &ToolPath) -> Vec<&FrameSource> {
+    path.items.iter().filter_map(|i| if let ItemKind::Frame(f) = &i.kind { Some(&f.source) } else { None }).collect()
+}
+
 fn arcs(path: &ToolPath) -> Vec<&Arc> {
     path.items.iter().filter_map(|i| if let ItemKind::Arc(a) = &i.kind { Some(&**a) } else { None }).collect()
 }
@@ -498,11 +502,7 @@ fn nurbs_start_end_and_degree() {
 #[test]
 fn camworks_rotabl_points_in_the_part_frame() {
     let path = read_clean("ok_camworks_rotabl.cl");
-    let frames: Vec<&FrameSource> = path
-        .items
-        .iter()
-        .filter_map(|i| if let ItemKind::Frame(f) = &i.kind { Some(&f.source) } else { None })
-        .collect();
+    let frames = frame_sources(&path);
     assert_eq!(frames.len(), 2, "{frames:?}");
     assert!(matches!(frames[0], FrameSource::Rotabl('A', a) if (a - FRAC_PI_2).abs() < 1e-6));
     let m = moves(&path);
@@ -526,11 +526,7 @@ fn camworks_rotabl_points_in_the_part_frame() {
 fn solidworks_csys_sets_its_set_ups_tool_axis() {
     let path = read_clean("ok_solidworks_csys_axis.cl");
     assert_eq!(path.info.cam_system, Some(CamSystem::SolidworksCam));
-    let frames: Vec<&FrameSource> = path
-        .items
-        .iter()
-        .filter_map(|i| if let ItemKind::Frame(f) = &i.kind { Some(&f.source) } else { None })
-        .collect();
+    let frames = frame_sources(&path);
     assert_eq!(frames.len(), 2, "{frames:?}");
     assert!(frames.iter().all(|f| matches!(f, FrameSource::Csys(_))));
     let m = moves(&path);

@@ -137,10 +137,33 @@ pub(crate) fn machine_and_setup(
     Ok((machine, job_setup))
 }
 
+/// The error message for a CL file without motion (`apt_source`: it is an APT part program).
+pub(crate) fn no_motion(name: &str, apt_source: bool, nothing: &str) -> String {
+    let why = if apt_source {
+        "it is an APT part program (source language: geometry and motion statements for an APT processor), \
+         not CL data; run it through an APT processor first"
+    } else {
+        "it has no GOTO, arc or NURBS"
+    };
+    format!("error: {name} has no motion: {why}; {nothing}\n")
+}
+
+/// The machine the kinematics are solved on: its linear travels are checked on the program, in
+/// the work offset's frame, once it is built (the kinematics' machine coordinates are those of
+/// the definition's assumed part zero), so they are endless here.
+pub(crate) fn solving_machine(machine: &Machine) -> Machine {
+    let mut solving = machine.clone();
+    for a in &mut solving.axes {
+        if a.kind == postpro_machine::model::AxisKind::Linear {
+            a.travel = Travel::Endless;
+        }
+    }
+    solving
+}
+
 /// Reads `file` and solves it on `chosen` with `ikt` and `setup`, for the mode asked for in
-/// the dialect (`auto` decided on the tool path). `stage` is told what is being done; `nothing`
-/// ends the message when the file does not read ("nothing written").
-#[allow(clippy::too_many_arguments)]
+/// the dialect (`auto` decided on the tool path); `nothing` ends the message when the file does
+/// not read ("nothing solved"). The whole-path commands' job; the main job is `stream`'s.
 pub(crate) fn prepare(
     file: &Path,
     chosen: &Chosen,
@@ -148,43 +171,26 @@ pub(crate) fn prepare(
     setup: &SetupArgs,
     (mode, dialect): (crate::emit::ModeArg, &Dialect),
     nothing: &str,
-    stage: &dyn Fn(&str),
 ) -> Result<Job, ExitCode> {
     let (machine, job_setup) = machine_and_setup(chosen, ikt, setup, nothing)?;
     let source = Source::from_path(file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
-    stage("reading");
     let path = postpro_cl::read_with(&source, &setup.read.options());
     if path.has_errors() {
-        stage("");
         for d in path.diagnostics.iter().filter(|d| d.is_error()) {
             eprint!("{}", d.render(&source));
         }
         return Err(fail(&format!("error: {} does not read; {nothing}\n", source.name()), 1));
     }
-    // The main job says what it passes over; the other commands only what may matter.
-    let mut warnings = report_reading(&source, (&path.info, &path.diagnostics), setup.strict, nothing == WRITTEN);
+    // Only what may matter: what is passed over is the main job's to say.
+    let mut warnings = report_reading(&source, (&path.info, &path.diagnostics), setup.strict, false);
     let moves = path.items.iter().any(|i| {
         matches!(i.kind, postpro_cl::ItemKind::Move(_) | postpro_cl::ItemKind::Arc(_) | postpro_cl::ItemKind::Nurbs(_))
     });
     if !moves {
-        stage("");
-        let why = if path.info.apt_source {
-            "it is an APT part program (source language: geometry and motion statements for an APT processor), \
-             not CL data; run it through an APT processor first"
-        } else {
-            "it has no GOTO, arc or NURBS"
-        };
-        return Err(fail(&format!("error: {} has no motion: {why}; {nothing}\n", source.name()), 1));
+        return Err(fail(&no_motion(source.name(), path.info.apt_source, nothing), 1));
     }
     let mode = mode.resolve(&path, &machine, dialect);
-    // Linear travels are checked on the program, in the work offset's frame, once it is built:
-    // the kinematics' machine coordinates are those of the definition's assumed part zero.
-    let mut solve_machine = machine.clone();
-    for a in &mut solve_machine.axes {
-        if a.kind == postpro_machine::model::AxisKind::Linear {
-            a.travel = Travel::Endless;
-        }
-    }
+    let solve_machine = solving_machine(&machine);
     let solver = chosen.solver(&solve_machine)?;
     let render = |e: postpro_motion::MotionError| report::render_with_source(e, source.name(), source.text());
     // The tools with the lengths they are solved with (the work offset is the dialect's
@@ -199,19 +205,13 @@ pub(crate) fn prepare(
     .map_err(|e| fail(&format!("{}error: {nothing}\n", render(e)), 1))?;
     warnings += warn_all(&source, &tool_warnings, setup.strict);
     if setup.strict && warnings > 0 {
-        stage("");
         return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {nothing}\n"), 1));
     }
-    stage("solving the kinematics");
     let solved = solve_with_tools(solver.kinematics(), &path, &solve_machine.policy, &tools.lengths());
     if let Some(e) = solver.take_error() {
-        stage("");
         return Err(fail(&report::render(&e), 1));
     }
-    let solved = solved.map_err(|e| {
-        stage("");
-        fail(&report::render_with_source(e, source.name(), source.text()), 1)
-    })?;
+    let solved = solved.map_err(|e| fail(&report::render_with_source(e, source.name(), source.text()), 1))?;
     Ok(Job {
         source,
         path,

@@ -114,11 +114,10 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         Err(code) => return code,
     };
     let dialect = crate::job::machine_dialect(&chosen.machine);
-    let job =
-        match prepare(&args.file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), "nothing oriented", &|_| {}) {
-            Ok(job) => job,
-            Err(code) => return code,
-        };
+    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), "nothing oriented") {
+        Ok(job) => job,
+        Err(code) => return code,
+    };
     let kin = job.solver.kinematics();
     let machine = &job.machine;
     let level = match args.level {

@@ -299,15 +299,7 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         return fail(&format!("error: --period must be a positive number of ms, found {ms}\n"), 2);
     }
     let dialect = crate::job::machine_dialect(&chosen.machine);
-    let job = match prepare(
-        &args.file,
-        &chosen,
-        &args.ikt,
-        &args.setup,
-        (args.mode, dialect),
-        "nothing predicted",
-        &|_| {},
-    ) {
+    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), "nothing predicted") {
         Ok(job) => job,
         Err(code) => return code,
     };

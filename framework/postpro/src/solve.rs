@@ -224,7 +224,7 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
     };
     let mode = postpro_emit::Mode::G1;
     let how = (crate::emit::ModeArg::G1, crate::job::machine_dialect(&chosen.machine));
-    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, &args.setup, how, "nothing solved", &|_| {}) {
+    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, &args.setup, how, "nothing solved") {
         Ok(job) => job,
         Err(code) => return code,
     };

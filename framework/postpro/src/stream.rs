@@ -25,7 +25,7 @@ use postpro_emit::{Dialect, EmitError, Options, WriteError};
 use postpro_kin::{
     BranchGraph, Collected, Kinematics, Linearizer, Linearizing, Placer, Shape, SolveError, Stretches, Target,
 };
-use postpro_machine::model::{AxisKind, Machine, Travel};
+use postpro_machine::model::Machine;
 use postpro_motion::travel::TravelCheck;
 use postpro_motion::{MotionSink, SetUps, Stage, Survey, Surveyor, ToolingReader};
 use postpro_predict::moves::Reader;
@@ -302,14 +302,7 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
     let file = ClFile::open(how.file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
     progress.set_len(file.len() as u64);
     let read_options = how.setup.read.options();
-    // Linear travels are checked on the program, in the work offset's frame, once it is built:
-    // the kinematics' machine coordinates are those of the definition's assumed part zero.
-    let mut solve_machine = machine.clone();
-    for a in &mut solve_machine.axes {
-        if a.kind == AxisKind::Linear {
-            a.travel = Travel::Endless;
-        }
-    }
+    let solve_machine = crate::job::solving_machine(&machine);
     let solver = how.chosen.solver(&solve_machine)?;
     let kin = solver.kinematics();
     let policy = &solve_machine.policy;
@@ -338,13 +331,7 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
     let mut warnings =
         progress.suspend(|| crate::job::report_reading(&file, (&surveyed.info, &surveyed.diagnostics), strict, true));
     if !surveyed.moves {
-        let why = if surveyed.info.apt_source {
-            "it is an APT part program (source language: geometry and motion statements for an APT processor), \
-             not CL data; run it through an APT processor first"
-        } else {
-            "it has no GOTO, arc or NURBS"
-        };
-        return Err(fail(&format!("error: {} has no motion: {why}; {WRITTEN}\n", file.name()), 1));
+        return Err(fail(&crate::job::no_motion(file.name(), surveyed.info.apt_source, WRITTEN), 1));
     }
     let mode = how.mode.resolve_turning(surveyed.turns_tool, &machine, dialect);
     let job =

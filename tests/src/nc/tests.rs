@@ -4,16 +4,7 @@ use super::*;
 use crate::testing::{close, close3};
 
 fn arc(from: [f64; 3], to: [f64; 3], center: [f64; 3], plane: Plane, clockwise: bool, full_turns: u32) -> Motion {
-    Motion {
-        kind: MotionKind::Arc(Arc { center, plane, clockwise, full_turns }),
-        from,
-        from_known: true,
-        to,
-        rotary: Rotary::default(),
-        vector: None,
-        feed: Some(100.0),
-        line: 1,
-    }
+    Motion { kind: MotionKind::Arc(Arc { center, plane, clockwise, full_turns }), ..feed(from, to) }
 }
 
 fn feed(from: [f64; 3], to: [f64; 3]) -> Motion {
