@@ -141,17 +141,11 @@ impl<'k> Predictor<'k> {
 
     fn step(&mut self, blocks: &Blocks, last: bool) -> std::ops::Range<usize> {
         let machine = self.kin.machine();
-        let ready = match &mut self.maker {
-            Maker::Model(m) => {
-                m.extend(blocks, machine, &mut self.track);
-                m.next_block()
-            }
-            Maker::Vpop(m) => {
-                let kin = self.options.splines.then_some(self.kin);
-                m.extend(blocks, machine, kin, &mut self.track);
-                m.next_block()
-            }
-        };
+        // Every block given is then taken in (a B-spline run comes whole).
+        match &mut self.maker {
+            Maker::Model(m) => m.extend(blocks, machine, &mut self.track),
+            Maker::Vpop(m) => m.extend(blocks, self.kin, &mut self.track),
+        }
         if last {
             self.track.complete();
         }
@@ -166,11 +160,12 @@ impl<'k> Predictor<'k> {
             curves,
             kin: self.options.samples.then_some(self.kin),
         };
-        self.collector.prepare(&seen, ready);
+        self.collector.prepare(&seen);
         let progress = self.stepper.go(&self.track.track, &mut self.collector.observing(&seen));
         let done = progress == plan::Progress::Done;
         let at = self.track.owner.get(self.stepper.piece()).copied().unwrap_or(blocks.len());
-        let range = self.collector.finalize(blocks, at, done || (last && self.track.is_empty()));
+        // An empty complete track is `Done` too.
+        let range = self.collector.finalize(blocks, at, done);
         for i in range.clone() {
             let r = &self.collector.results[i];
             let op = blocks.operation[i] as usize;

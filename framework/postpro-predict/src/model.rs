@@ -15,18 +15,8 @@
 use crate::block::{Limiter, block_limits};
 use crate::corner::junction_cap;
 use crate::moves::{BlockKind, Blocks};
-use crate::plan::{Limit, Piece, Track, TrackBuilder};
-use crate::window::Window;
+use crate::plan::{Limit, Piece, TrackBuilder};
 use postpro_machine::model::Machine;
-
-/// The track of `blocks` on `machine`, and for each piece the block it stands for (blocks of
-/// no duration have no piece).
-pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Window<usize>) {
-    let mut track = TrackBuilder::new(window(machine));
-    Maker::new(blocks.axes).extend(blocks, machine, &mut track);
-    track.complete();
-    (track.track, track.owner)
-}
 
 /// Paper 000: "to generate the profile on block N, the geometry of the trajectory until block
 /// N + 10 is taken into account": the current block and `look_ahead` more — blocks of the

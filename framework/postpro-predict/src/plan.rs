@@ -249,7 +249,7 @@ impl TrackBuilder {
         }
         self.stop_pending = false;
         self.dwell_pending = 0.0;
-        if counts || track.window == usize::MAX {
+        if counts {
             track.counted.push(track.pieces.end());
         }
         track.pieces.push(piece);

@@ -534,7 +534,7 @@ impl Collector {
 
     /// Takes in the pieces made so far, and the blocks before `ready` (whose pieces are all
     /// made).
-    pub(crate) fn prepare(&mut self, seen: &Seen<'_>, ready: usize) {
+    pub(crate) fn prepare(&mut self, seen: &Seen<'_>) {
         let (blocks, track, owner) = (seen.blocks, seen.track, seen.owner);
         while self.results.end() < blocks.len() {
             let i = self.results.end();
@@ -582,7 +582,7 @@ impl Collector {
             self.u_end += l;
         }
         // A block of no piece is covered by the next block that has one.
-        while self.prepared < ready.min(blocks.len()) {
+        while self.prepared < blocks.len() {
             let b = self.prepared;
             self.prepared += 1;
             self.asked_before += blocks.nominal[b];

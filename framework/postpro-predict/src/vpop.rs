@@ -6,7 +6,7 @@
 //!
 //! - On G1 blocks `q` is linear in `s` (`q_ss = q_sss = 0`); block corners are rounded within
 //!   the contour tolerance as in the inverse-time model.
-//! - On B-spline output ([`track_bspline`]) each run of feed moves is the spline the emitter
+//! - On B-spline output ([`Maker`] with curves) each run of feed moves is the spline the emitter
 //!   writes (the same fit, [`postpro_kin::bspline`]), its parameter the tip's chord length. Each
 //!   knot span is cut into pieces whose caps take the derivatives at their worst over the piece:
 //!   the speed at 0.8 × paper 003's quick bound
@@ -19,7 +19,7 @@
 //! path is seen ahead.
 
 use crate::moves::{BlockKind, Blocks, SplineRun};
-use crate::plan::{Limit, Piece, Track, TrackBuilder};
+use crate::plan::{Limit, Piece, TrackBuilder};
 use crate::window::Window;
 use postpro_kin::Kinematics;
 use postpro_kin::bspline::{Cursor, Spline};
@@ -52,6 +52,13 @@ pub struct Curves {
 }
 
 impl Curves {
+    /// The pieces up to `pieces` that have no segment yet are straight.
+    fn pad_to(&mut self, pieces: usize) {
+        while self.segments.end() < pieces {
+            self.segments.push(Segment::Line);
+        }
+    }
+
     /// Forgets the pieces before piece `i`, and the splines that end before it.
     pub fn forget_before(&mut self, i: usize) {
         self.segments.forget_before(i);
@@ -64,27 +71,6 @@ impl Curves {
         self.splines.forget_before(first_kept);
         self.start_block.forget_before(first_kept);
     }
-}
-
-/// The VPOp track of G1 `blocks`: one piece per block, in tip path length (a block that only
-/// turns the tool gets the length it would have at its feed over its axis-speed duration).
-pub fn track(blocks: &Blocks, machine: &Machine) -> (Track, Window<usize>) {
-    let mut b = Maker::new(blocks.axes, machine, false);
-    let mut track = TrackBuilder::new(usize::MAX);
-    b.extend(blocks, machine, None, &mut track);
-    track.complete();
-    (track.track, track.owner)
-}
-
-/// The VPOp track of the B-spline program: each run of feed moves at one feed (between items
-/// of the CL file, rapids and stops) as the spline the emitter fits through its CL points, the
-/// rest as G1 blocks.
-pub fn track_bspline(blocks: &Blocks, kin: &dyn Kinematics, machine: &Machine) -> (Track, Window<usize>, Curves) {
-    let mut b = Maker::new(blocks.axes, machine, true);
-    let mut track = TrackBuilder::new(usize::MAX);
-    b.extend(blocks, machine, Some(kin), &mut track);
-    track.complete();
-    (track.track, track.owner, b.curves.unwrap_or_default())
 }
 
 /// The tip speed block `i` asks for: its feed, or less in G1 timing (F on the axes). The feed
@@ -135,40 +121,27 @@ impl Maker {
 
     /// Adds the pieces of the blocks added to `blocks` since the last call (a B-spline run
     /// comes whole).
-    pub fn extend(
-        &mut self,
-        blocks: &Blocks,
-        machine: &Machine,
-        kin: Option<&dyn Kinematics>,
-        track: &mut TrackBuilder,
-    ) {
+    pub fn extend(&mut self, blocks: &Blocks, kin: &dyn Kinematics, track: &mut TrackBuilder) {
+        let machine = kin.machine();
         while self.next < blocks.len() {
             let i = self.next;
             let splines = &blocks.splines;
             while self.next_spline < splines.end() && splines[self.next_spline].first < i {
                 self.next_spline += 1;
             }
-            let run =
-                self.curves.as_ref().and(kin).filter(|_| splines.get(self.next_spline).is_some_and(|r| r.first == i));
-            if let Some(kin) = run {
-                let r = self.next_spline;
-                let run = &blocks.splines[r];
-                self.curve(blocks, machine, run, kin, track);
-                if let Some(curves) = self.curves.as_mut() {
-                    while curves.segments.end() < track.len() {
-                        curves.segments.push(Segment::Line);
-                    }
+            match splines.get(self.next_spline).filter(|r| r.first == i && self.curves.is_some()) {
+                Some(run) => {
+                    self.curve(blocks, machine, run, kin, track);
+                    self.next += run.poses.len() - 1;
                 }
-                self.next += run.poses.len() - 1;
-                continue;
+                None => {
+                    self.line(blocks, machine, i, track);
+                    self.next += 1;
+                }
             }
-            self.line(blocks, machine, i, track);
             if let Some(curves) = self.curves.as_mut() {
-                while curves.segments.end() < track.len() {
-                    curves.segments.push(Segment::Line);
-                }
+                curves.pad_to(track.len());
             }
-            self.next += 1;
         }
     }
 
@@ -309,9 +282,7 @@ impl Maker {
                 let (from, to) = (w[0], w[1]);
                 let piece = curve_piece(machine, &mut cursor, kin, from, to, feed);
                 track.push(piece, block, corner, why, true);
-                while curves.segments.end() + 1 < track.len() {
-                    curves.segments.push(Segment::Line);
-                }
+                curves.pad_to(track.len() - 1);
                 curves.segments.push(Segment::Curve { spline: which, from });
                 corner = f64::INFINITY;
             }

@@ -19,11 +19,6 @@ impl<T> Default for Window<T> {
 }
 
 impl<T> Window<T> {
-    /// An empty window with room for `n` values.
-    pub fn with_capacity(n: usize) -> Window<T> {
-        Window { base: 0, items: Vec::with_capacity(n) }
-    }
-
     /// Adds the value at position `end()`.
     pub fn push(&mut self, value: T) {
         self.items.push(value);
@@ -95,11 +90,6 @@ impl<T> Window<T> {
     /// The values held, as a vector.
     pub fn into_vec(self) -> Vec<T> {
         self.items
-    }
-
-    /// The values held, mutable.
-    pub fn held_mut(&mut self) -> &mut [T] {
-        &mut self.items
     }
 }
 
