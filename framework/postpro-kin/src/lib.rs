@@ -12,6 +12,7 @@
 //! - [`linearize`]: extra points so that the tool tip, moving with the axes interpolated
 //!   linearly, stays within tolerance of the programmed segment.
 
+mod bits;
 pub mod bspline;
 mod chain;
 mod closed;
@@ -32,7 +33,7 @@ pub use policy::{
 };
 pub use pose::{Joints, MAX_AXES, Pose};
 pub use solver::{Kinematics, Solution, Solutions, solver_for};
-pub use tool::{LengthFrom, Stretches, ToolLength, solve_with_tools, tool_changes};
+pub use tool::{LengthFrom, Stretches, ToolLength, ToolPlacer, solve_with_tools, tool_changes};
 
 /// Solves a tool path on a machine: the targets of the path, the policy's choice, then
 /// linearization within the policy's tolerance (decision steps are kept in step with it).

@@ -5,6 +5,7 @@
 
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 
+use crate::bits::Bits;
 use crate::policy::{Collected, Noted, Policy, Step, StepKind, StepSink};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
@@ -70,8 +71,7 @@ pub struct Linearizer {
 /// deviation again.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Shape {
-    words: Vec<u64>,
-    len: usize,
+    bits: Bits,
     /// Replaying: the next bit to read; `None`: recording (or neither, when `off`).
     read: Option<usize>,
     off: bool,
@@ -89,24 +89,13 @@ impl Shape {
             return check();
         }
         if let Some(k) = self.read.as_mut() {
-            let bit = *k < self.len && self.words[*k / 64] & (1 << (*k % 64)) != 0;
+            let bit = self.bits.get(*k);
             *k += 1;
             return bit;
         }
         let bit = check();
-        if self.len.is_multiple_of(64) {
-            self.words.push(0);
-        }
-        if bit {
-            self.words[self.len / 64] |= 1 << (self.len % 64);
-        }
-        self.len += 1;
+        self.bits.push(bit);
         bit
-    }
-
-    /// Bytes held.
-    pub fn heap_bytes(&self) -> usize {
-        self.words.capacity() * 8
     }
 }
 
@@ -145,11 +134,6 @@ impl Linearizer {
     /// Points inserted so far.
     pub fn inserted(&self) -> usize {
         self.inserted
-    }
-
-    /// Steps handed on so far.
-    pub fn steps(&self) -> usize {
-        self.given
     }
 
     /// Forgets the previous step: the next one starts afresh (another tool; nothing joins them).

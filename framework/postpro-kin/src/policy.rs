@@ -27,6 +27,7 @@ use std::fmt;
 use postpro_cl::Span;
 use postpro_machine::model::{AxisKind, BranchPreference, PolicyDefaults, Travel};
 
+use crate::bits::Bits;
 use crate::linearize::slerp;
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
@@ -512,37 +513,6 @@ fn pole_distance(sols: &Solutions) -> f64 {
 /// Below this distance from the pole (rad) a tool axis is on it.
 const ON_POLE: f64 = 1e-9;
 
-/// A growable vector of bits.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-struct Bits {
-    words: Vec<u64>,
-    len: usize,
-}
-
-impl Bits {
-    fn push(&mut self, bit: bool) {
-        if self.len.is_multiple_of(64) {
-            self.words.push(0);
-        }
-        if bit {
-            self.words[self.len / 64] |= 1 << (self.len % 64);
-        }
-        self.len += 1;
-    }
-
-    fn get(&self, i: usize) -> bool {
-        i < self.len && self.words[i / 64] & (1 << (i % 64)) != 0
-    }
-
-    fn set(&mut self, i: usize, bit: bool) {
-        if bit {
-            self.words[i / 64] |= 1 << (i % 64);
-        } else {
-            self.words[i / 64] &= !(1 << (i % 64));
-        }
-    }
-}
-
 /// A singular run: consecutive targets whose every solution lies within the singular cone, where
 /// the free axis is carried, not computed. What the second pass needs to carry it.
 #[derive(Clone, Debug, PartialEq)]
@@ -598,14 +568,10 @@ pub struct Choice {
     regular: Bits,
     /// Per regular target, its state (0 or 1).
     states: Bits,
+    /// Per regular target, whether the move into it passes the pole (a branch change there is
+    /// then no discontinuity): found once, by the first pass.
+    pole_passages: Bits,
     runs: Vec<Run>,
-}
-
-impl Choice {
-    /// Bytes held, to check that it stays a few bits per target.
-    pub fn heap_bytes(&self) -> usize {
-        (self.regular.words.capacity() + self.states.words.capacity()) * 8 + self.runs.capacity() * size_of::<Run>()
-    }
 }
 
 mod graph;

@@ -9,8 +9,8 @@
 use postpro_cl::{ItemKind, ToolPath};
 use postpro_machine::model::Machine;
 
-use crate::linearize::{Linearizer, Linearizing};
-use crate::policy::{BranchGraph, Collected, Placer, Policy, SolveError, Solved};
+use crate::linearize::{Linearizer, Linearizing, Shape};
+use crate::policy::{BranchGraph, Collected, Placer, Policy, SolveError, Solved, StepSink, Target};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
 use crate::targets;
@@ -85,18 +85,47 @@ pub fn solve_with_tools(
     for t in &all {
         graph.push(t)?;
     }
-    let mut placer = Placer::new(kin, policy, None, graph.finish());
-    let mut linearizer = Linearizer::new(policy);
+    let placer = Placer::new(kin, policy, None, graph.finish());
+    let mut placing = ToolPlacer::new(placer, Linearizer::new(policy), Stretches::new(kin, path, lengths));
     let mut out = Collected { steps: Vec::with_capacity(all.len()), decisions: Vec::new() };
-    let mut stretches = Stretches::new(kin, path, lengths);
     for t in &all {
-        if stretches.enter(t.span.start) {
-            linearizer.restart();
-        }
-        let tool = stretches.tool();
-        placer.push(&tool, t, &mut Linearizing { linearizer: &mut linearizer, kin: &tool, out: &mut out })?;
+        placing.push(t, &mut out)?;
     }
-    Ok(Solved { steps: out.steps, decisions: out.decisions, inserted: linearizer.inserted() })
+    Ok(Solved { steps: out.steps, decisions: out.decisions, inserted: placing.inserted() })
+}
+
+/// The policy's second pass with the tools' lengths: each target placed with the kinematics of
+/// the tool in the spindle, then linearized with them (afresh at each change of tool).
+pub struct ToolPlacer<'a> {
+    placer: Placer<'a>,
+    linearizer: Linearizer,
+    stretches: Stretches<'a>,
+}
+
+impl<'a> ToolPlacer<'a> {
+    /// Places with `placer`, linearizes with `linearizer`, the tools as `stretches` say.
+    pub fn new(placer: Placer<'a>, linearizer: Linearizer, stretches: Stretches<'a>) -> ToolPlacer<'a> {
+        ToolPlacer { placer, linearizer, stretches }
+    }
+
+    /// The next target: its steps and decisions go to `out`.
+    pub fn push(&mut self, t: &Target, out: &mut dyn StepSink) -> Result<(), SolveError> {
+        if self.stretches.enter(t.span.start) {
+            self.linearizer.restart();
+        }
+        let tool = self.stretches.tool();
+        self.placer.push(&tool, t, &mut Linearizing { linearizer: &mut self.linearizer, kin: &tool, out })
+    }
+
+    /// Points linearization inserted so far.
+    pub fn inserted(&self) -> usize {
+        self.linearizer.inserted()
+    }
+
+    /// The linearization's subdivisions ([`Linearizer::shape`]).
+    pub fn shape(self) -> Shape {
+        self.linearizer.shape()
+    }
 }
 
 /// The stretches of a tool path that each tool's length applies to, walked in path order.

@@ -23,7 +23,7 @@ use std::process::ExitCode;
 use postpro_cl::{ClFile, Item, ItemKind, ItemSink, Motion, ProgramInfo, Span, TextKind, ToolAxis};
 use postpro_emit::{Dialect, EmitError, Options, WriteError};
 use postpro_kin::{
-    BranchGraph, Collected, Kinematics, Linearizer, Linearizing, Placer, Shape, SolveError, Stretches, Target,
+    BranchGraph, Collected, Kinematics, Linearizer, Placer, Shape, SolveError, Stretches, Target, ToolPlacer,
 };
 use postpro_machine::model::Machine;
 use postpro_motion::travel::TravelCheck;
@@ -167,9 +167,7 @@ impl PassError {
 /// linearization (each tool with its own length) and the motion program.
 struct Motions<'a> {
     tolerance: f64,
-    placer: Placer<'a>,
-    linearizer: Linearizer,
-    stretches: Stretches<'a>,
+    placing: ToolPlacer<'a>,
     targets: Vec<Target>,
     steps: Collected,
     stage: Stage<'a>,
@@ -191,12 +189,7 @@ impl ItemSink for Motions<'_> {
             self.targets.clear();
             postpro_kin::targets_of(&item, self.tolerance, &mut self.targets);
             for t in &self.targets {
-                if self.stretches.enter(t.span.start) {
-                    self.linearizer.restart();
-                }
-                let tool = self.stretches.tool();
-                let mut out = Linearizing { linearizer: &mut self.linearizer, kin: &tool, out: &mut self.steps };
-                if let Err(e) = self.placer.push(&tool, t, &mut out) {
+                if let Err(e) = self.placing.push(t, &mut self.steps) {
                     self.error = Some(PassError::Solve(e));
                     return;
                 }
@@ -225,8 +218,8 @@ impl Motions<'_> {
         if let Some(e) = self.error {
             return Err(e);
         }
-        let summary = self.stage.finish(self.linearizer.inserted()).map_err(PassError::Motion)?;
-        Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: self.linearizer.shape() })
+        let summary = self.stage.finish(self.placing.inserted()).map_err(PassError::Motion)?;
+        Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: self.placing.shape() })
     }
 }
 
@@ -636,9 +629,11 @@ impl Pass<'_> {
         };
         let mut motions = Motions {
             tolerance: policy.linearization_tolerance,
-            placer: Placer::new(kin, policy, None, choice.clone()),
-            linearizer,
-            stretches: Stretches::starting(kin, self.job.stretch_starts()),
+            placing: ToolPlacer::new(
+                Placer::new(kin, policy, None, choice.clone()),
+                linearizer,
+                Stretches::starting(kin, self.job.stretch_starts()),
+            ),
             targets: Vec::new(),
             steps: Collected::default(),
             stage: Stage::new(kin, options, self.job, self.unknown.clone(), set_ups, sink),

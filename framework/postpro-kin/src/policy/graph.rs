@@ -5,9 +5,8 @@
 use nalgebra::Point3;
 use postpro_machine::model::PathChoice;
 
-use super::{
-    Bits, Choice, Node, ON_POLE, Rules, Run, Swing, Target, best_state, passes_pole, pole_distance, swing_weight,
-};
+use super::{Choice, Node, ON_POLE, Rules, Run, Swing, Target, best_state, passes_pole, pole_distance, swing_weight};
+use crate::bits::Bits;
 use crate::policy::{Policy, SolveError};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
@@ -25,6 +24,8 @@ pub struct BranchGraph<'a> {
     /// Per regular target, the predecessor of each state (bit `2k + s`).
     preds: Bits,
     regular: Bits,
+    /// Per regular target, whether the move into it passes the pole.
+    pole_passages: Bits,
     /// Regular targets so far.
     regulars: usize,
     /// Targets so far.
@@ -104,6 +105,7 @@ impl<'a> BranchGraph<'a> {
             layer: [Node { jumps: 0, cost: 0.0, pred: 0, joints: start, branch: u8::MAX }, Node::EMPTY],
             preds: Bits::default(),
             regular: Bits::default(),
+            pole_passages: Bits::default(),
             regulars: 0,
             index: 0,
             previous_regular: None,
@@ -152,6 +154,7 @@ impl<'a> BranchGraph<'a> {
         let pole_passage = previous_target.is_some_and(|(_, pose, p_pole)| {
             passes_pole(self.kin, (&pose, p_pole), (&t.pose, pole), self.rules.policy.pole_passage, &mut self.probe)
         });
+        self.pole_passages.push(pole_passage);
         let rules = &self.rules;
         let mut layer = [Node::EMPTY; 2];
         let mut reasons: [Option<(usize, f64)>; 4] = [None; 4];
@@ -233,6 +236,6 @@ impl<'a> BranchGraph<'a> {
                 s = usize::from(self.preds.get(2 * k + s));
             }
         }
-        Choice { regular: self.regular, states, runs: self.runs }
+        Choice { regular: self.regular, states, pole_passages: self.pole_passages, runs: self.runs }
     }
 }

@@ -5,7 +5,7 @@
 use nalgebra::Point3;
 use postpro_machine::model::{OnDiscontinuity, Travel};
 
-use super::{Choice, HALF_TURN, Jump, Rules, StepSink, Swing, Target, passes_pole, pole_distance, swing_weight};
+use super::{Choice, HALF_TURN, Jump, Rules, StepSink, Swing, Target, pole_distance, swing_weight};
 use crate::policy::{AxisMoves, Decision, Noted, Policy, SolveError, Step, StepKind};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
@@ -19,7 +19,6 @@ pub struct Placer<'a> {
     rules: Rules<'a>,
     choice: Choice,
     sols: Solutions,
-    probe: Solutions,
     start: Joints,
     /// Targets so far.
     index: usize,
@@ -30,8 +29,8 @@ pub struct Placer<'a> {
     /// Steps made so far.
     steps: usize,
     last_step: Option<Step>,
-    /// The previous regular target: its index, joints, branch, pose and pole distance.
-    previous_regular: Option<(usize, Joints, u8, Pose, f64)>,
+    /// The previous regular target: its index, joints and branch.
+    previous_regular: Option<(usize, Joints, u8)>,
     /// The previous target: its tip and pole distance.
     previous: Option<(Point3<f64>, f64)>,
     rapid_since: bool,
@@ -70,7 +69,6 @@ impl<'a> Placer<'a> {
             rules,
             choice,
             sols: Solutions::new(),
-            probe: Solutions::new(),
             start,
             index: 0,
             regulars: 0,
@@ -83,11 +81,6 @@ impl<'a> Placer<'a> {
             off_preference: false,
             run: None,
         }
-    }
-
-    /// Steps made so far.
-    pub fn steps(&self) -> usize {
-        self.steps
     }
 
     /// The next target, solved with `kin` (the machine of the first pass, with the tool in the
@@ -103,7 +96,7 @@ impl<'a> Placer<'a> {
         let previous = self.previous.replace((t.pose.tip, pole));
         self.rapid_since |= t.rapid;
         if self.choice.regular.get(i) {
-            self.regular(kin, i, t, pole, out)
+            self.regular(kin, i, t, out)
         } else {
             self.singular(kin, i, t, pole, previous, out)
         }
@@ -114,19 +107,16 @@ impl<'a> Placer<'a> {
         kin: &dyn Kinematics,
         i: usize,
         t: &Target,
-        pole: f64,
         out: &mut dyn StepSink,
     ) -> Result<(), SolveError> {
         let state = usize::from(self.choice.states.get(self.regulars));
+        let pole_passage = self.choice.pole_passages.get(self.regulars);
         self.regulars += 1;
         let Some(cand) = self.sols.iter().nth(state).copied() else { return Err(self.rules.unreachable(t)) };
         let (from, from_branch) = self.previous_regular.map_or((self.start, u8::MAX), |p| (p.1, p.2));
         // Consecutive feed points: here a branch change away from the pole, or a turn beyond the
         // nearest one, is a discontinuity.
         let previous_target = self.previous_regular.filter(|p| p.0 + 1 == i && !self.rapid_since);
-        let pole_passage = previous_target.is_some_and(|(_, _, _, pose, p_pole)| {
-            passes_pole(kin, (&pose, p_pole), (&t.pose, pole), self.rules.policy.pole_passage, &mut self.probe)
-        });
         let mut j = self.rules.unwound(&cand.joints, &from).map_err(|reason| self.rules.out_of_travel(t, &[reason]))?;
         let jump = self.rules.jump((&from, from_branch), (&j, cand.branch), previous_target.is_some(), pole_passage);
         let preferred = self.rules.preferred(&j);
@@ -135,7 +125,7 @@ impl<'a> Placer<'a> {
         }
         let mut made = step(t, j);
         let at = self.prepare(kin, &mut made, jump, out)?;
-        if let Some((_, joints, branch, _, _)) = self.previous_regular.filter(|p| p.0 + 1 == i)
+        if let Some((_, joints, branch)) = self.previous_regular.filter(|p| p.0 + 1 == i)
             && branch != cand.branch
             && jump.is_none()
         {
@@ -150,7 +140,7 @@ impl<'a> Placer<'a> {
             out.decision(Noted { step: at, span: t.span, decision });
         }
         self.off_preference = !preferred;
-        self.previous_regular = Some((i, j, cand.branch, t.pose, pole));
+        self.previous_regular = Some((i, j, cand.branch));
         self.rapid_since = false;
         self.emit(made, out);
         Ok(())
