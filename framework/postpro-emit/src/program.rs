@@ -993,7 +993,7 @@ impl<'a> Formatter<'a> {
         (Some(text), note.map(|t| clean_comment(self.dialect, t)))
     }
 
-    fn block(&mut self, block: &postpro_motion::Block) {
+    pub(crate) fn block(&mut self, block: &postpro_motion::Block) {
         self.kind(&block.kind);
         if let Some(end) = block.end() {
             self.previous = Some(*end);

@@ -47,9 +47,9 @@ pub fn render(program: &Program, name: &str, source: &str) -> Result<String, Emi
         };
         streamable(&template.render_captured(empty).map_err(err)?)
     };
-    let numbered = |dialect: &Dialect, text: &str| if renumber { numbered(dialect, text) } else { text.to_string() };
+    let numbered = |text: String| if renumber { numbered(dialect, &text) } else { text };
     if program.header.prediction.as_ref().is_none_or(|p| p.worst.is_empty()) {
-        return template.render(program).map_err(err).map(|text| numbered(dialect, &text));
+        return template.render(program).map_err(err).map(numbered);
     }
     let mut marked = program.clone();
     for block in &mut marked.blocks {
@@ -57,7 +57,7 @@ pub fn render(program: &Program, name: &str, source: &str) -> Result<String, Emi
             *text = format!("{MARK}{number}{MARK}{text}");
         }
     }
-    let first_pass = numbered(dialect, &template.render(&marked).map_err(err)?);
+    let first_pass = numbered(template.render(&marked).map_err(err)?);
     let mut lines = HashMap::new();
     for (k, line) in first_pass.lines().enumerate() {
         let number = line.split(MARK).nth(1).and_then(|n| n.parse::<usize>().ok());
@@ -73,7 +73,7 @@ pub fn render(program: &Program, name: &str, source: &str) -> Result<String, Emi
         tools => Value::from_serialize(&program.tools),
         blocks => Value::from_serialize(&program.blocks),
     };
-    template.render(context).map_err(err).map(|text| numbered(dialect, &text))
+    template.render(context).map_err(err).map(numbered)
 }
 
 /// True when the template of `captured` defines the macros a streamed program is written with.
@@ -86,12 +86,8 @@ fn numbered(dialect: &Dialect, text: &str) -> String {
     if !dialect.numbered_blocks {
         return text.to_string();
     }
-    let mut numbering = Numbering::default();
     let mut out = String::with_capacity(text.len() + text.len() / 8);
-    for line in text.split_inclusive('\n') {
-        numbering.prefix(line, &mut out);
-        out.push_str(line);
-    }
+    number_lines(dialect, &mut Numbering::default(), text, &mut out);
     out
 }
 
@@ -109,7 +105,7 @@ impl Numbering {
         let number = (!self.continues).then(|| {
             let n = self.next;
             self.next += 1;
-            out.push_str(&n.to_string());
+            out.push_str(itoa::Buffer::new().format(n));
             out.push(' ');
             n
         });
@@ -197,17 +193,13 @@ pub fn write_program(
     out: &mut dyn Write,
 ) -> Result<(), EmitError> {
     let mut body = Vec::new();
-    let mut produce = |sink: &mut dyn MotionSink| -> Result<(), std::convert::Infallible> {
-        for block in &motion.blocks {
-            sink.block(block.clone());
-        }
+    let mut produce = |f: &mut Formatter<'_>| -> Result<(), std::convert::Infallible> {
+        motion.blocks.iter().for_each(|block| f.block(block));
         Ok(())
     };
-    write_program_with(motion, machine, dialect, options, (name, source), out, &mut body, &mut produce).map_err(|e| {
-        match e {
-            WriteError::Emit(e) => e,
-            WriteError::Produce(never) => match never {},
-        }
+    write_with(motion, machine, dialect, options, (name, source), out, &mut body, &mut produce).map_err(|e| match e {
+        WriteError::Emit(e) => e,
+        WriteError::Produce(never) => match never {},
     })
 }
 
@@ -234,6 +226,23 @@ pub fn write_program_with<E>(
     out: &mut dyn Write,
     scratch: &mut dyn Scratch,
     produce: &mut dyn FnMut(&mut dyn MotionSink) -> Result<(), E>,
+) -> Result<(), WriteError<E>> {
+    let mut feed = |f: &mut Formatter<'_>| produce(f);
+    write_with(facts, machine, dialect, options, (name, source), out, scratch, &mut feed)
+}
+
+/// [`write_program_with`], the blocks fed to the formatter by `produce` (by reference where
+/// they are held).
+#[allow(clippy::too_many_arguments)]
+fn write_with<E>(
+    facts: &postpro_motion::Program,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+    (name, source): (&str, &str),
+    out: &mut dyn Write,
+    scratch: &mut dyn Scratch,
+    produce: &mut dyn FnMut(&mut Formatter<'_>) -> Result<(), E>,
 ) -> Result<(), WriteError<E>> {
     check_mode(dialect, facts.mode)?;
     let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
@@ -267,7 +276,7 @@ pub fn write_program_with<E>(
     let start = state.call_macro("program_start", &[]).map_err(err)?;
     let start_lines = start.matches('\n').count();
     // The body's lines go to the scratch; the scratch is free again once they are all there.
-    let (slowdowns, body_numbering, lines) = {
+    let (slowdowns, body_numbering) = {
         let mut body = Streaming {
             state,
             name,
@@ -284,8 +293,8 @@ pub fn write_program_with<E>(
         produce(&mut formatter).map_err(WriteError::Produce)?;
         formatter.finish()?;
         body.out.flush().map_err(io_error)?;
-        let Streaming { slowdowns, numbering, lines, .. } = body;
-        (slowdowns, numbering, lines)
+        let Streaming { slowdowns, numbering, .. } = body;
+        (slowdowns, numbering)
     };
     let end = state.call_macro("program_end", &[]).map_err(err)?;
     let start = if header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty()) {
@@ -305,37 +314,32 @@ pub fn write_program_with<E>(
         start
     };
     let mut text = String::with_capacity(start.len() + 64);
-    for line in start.split_inclusive('\n') {
-        numbering_line(dialect, &mut numbering, line, &mut text);
-    }
+    number_lines(dialect, &mut numbering, &start, &mut text);
     text.lines().try_for_each(|l| check_length(l, dialect))?;
     out.write_all(text.as_bytes()).map_err(io_error)?;
     scratch.replay(out).map_err(io_error)?;
     let mut numbering = body_numbering;
     let mut text = String::with_capacity(end.len() + 16);
-    for line in end.split_inclusive('\n') {
-        numbering_line(dialect, &mut numbering, line, &mut text);
-    }
+    number_lines(dialect, &mut numbering, &end, &mut text);
     text.lines().try_for_each(|l| check_length(l, dialect))?;
-    let _ = lines;
     out.write_all(text.as_bytes()).map_err(|e| io_error(e).into())
 }
 
 /// The blocks `text` holds (each numbered line) in `dialect`.
 fn count_blocks(dialect: &Dialect, text: &str) -> u64 {
     let mut numbering = Numbering::default();
-    let mut sink = String::new();
-    for line in text.split_inclusive('\n') {
-        numbering_line(dialect, &mut numbering, line, &mut sink);
-    }
+    number_lines(dialect, &mut numbering, text, &mut String::new());
     numbering.next
 }
 
-/// Appends `line` to `out`, with its number where the dialect numbers blocks.
-fn numbering_line(dialect: &Dialect, numbering: &mut Numbering, line: &str, out: &mut String) -> Option<u64> {
-    let number = if dialect.numbered_blocks { numbering.prefix(line, out) } else { None };
-    out.push_str(line);
-    number
+/// Appends the lines of `text` to `out`, each with its number where the dialect numbers blocks.
+fn number_lines(dialect: &Dialect, numbering: &mut Numbering, text: &str, out: &mut String) {
+    for line in text.split_inclusive('\n') {
+        if dialect.numbered_blocks {
+            numbering.prefix(line, out);
+        }
+        out.push_str(line);
+    }
 }
 
 fn io_error(e: std::io::Error) -> EmitError {

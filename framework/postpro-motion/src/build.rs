@@ -135,7 +135,7 @@ impl Job {
         let kinematic_lengths = crate::tooling::kinematic_lengths(machine, &tooling, mode).map_err(|tool| {
             let change = tooling.changes.iter().find(|c| c.tool == tool);
             MotionError::ToolLength {
-                span: change.map_or_else(Span::default, crate::tooling::change_span),
+                span: change.map_or_else(Span::default, |c| c.span),
                 number: tooling.tools[tool].number,
                 machine: machine.name.clone(),
             }

@@ -218,8 +218,3 @@ pub fn kinematic_lengths(machine: &Machine, tooling: &Tooling, mode: Mode) -> Re
         })
         .collect()
 }
-
-/// Where a tool with no length is needed: the span of its change, for the error.
-pub fn change_span(change: &Change) -> Span {
-    change.span
-}
