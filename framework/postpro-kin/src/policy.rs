@@ -550,6 +550,21 @@ enum Swing {
     },
 }
 
+/// The move into target `index` of a singular run that starts at target `start`, from
+/// `previous` (its tip and pole distance) to `tip` (at pole distance `pole`), as the swing counts
+/// it: the larger pole distance of its two ends and its tip length. `None` for the move into the
+/// first target of the path, which does not count.
+fn run_move(
+    start: usize,
+    index: usize,
+    previous: Option<(nalgebra::Point3<f64>, f64)>,
+    tip: nalgebra::Point3<f64>,
+    pole: f64,
+) -> Option<(f64, f64)> {
+    let (from, from_pole) = previous.filter(|_| index >= start.max(1))?;
+    Some((from_pole.max(pole), (tip - from).norm()))
+}
+
 /// The weight of a move of a singular run in [`Swing::Weighted`]: `eps` the larger pole
 /// distance of its two ends, `length` its tip length.
 fn swing_weight(eps: f64, length: f64, on_pole: bool) -> f64 {

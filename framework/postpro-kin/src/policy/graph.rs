@@ -5,7 +5,9 @@
 use nalgebra::Point3;
 use postpro_machine::model::PathChoice;
 
-use super::{Choice, Node, ON_POLE, Rules, Run, Swing, Target, best_state, passes_pole, pole_distance, swing_weight};
+use super::{
+    Choice, Node, ON_POLE, Rules, Run, Swing, Target, best_state, passes_pole, pole_distance, run_move, swing_weight,
+};
 use crate::bits::Bits;
 use crate::policy::{Policy, SolveError};
 use crate::pose::{Joints, Pose};
@@ -66,16 +68,15 @@ impl OpenRun {
         tip: Point3<f64>,
         pole: f64,
     ) {
-        let Some((from, from_pole)) = previous.filter(|_| index >= self.start.max(1)) else { return };
+        let Some((eps, length)) = run_move(self.start, index, previous, tip, pole) else { return };
         if rapid {
             self.last_rapid = Some(index);
         }
-        let eps = from_pole.max(pole);
         if eps < ON_POLE {
             self.on_pole = true;
         }
         self.inverse_eps += swing_weight(eps, 0.0, false);
-        self.on_pole_length += swing_weight(eps, (tip - from).norm(), true);
+        self.on_pole_length += swing_weight(eps, length, true);
     }
 
     fn close(self, after: Option<[f64; 2]>) -> Run {

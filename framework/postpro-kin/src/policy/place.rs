@@ -5,7 +5,7 @@
 use nalgebra::Point3;
 use postpro_machine::model::{OnDiscontinuity, Travel};
 
-use super::{Choice, HALF_TURN, Jump, Rules, StepSink, Swing, Target, pole_distance, swing_weight};
+use super::{Choice, HALF_TURN, Jump, Rules, StepSink, Swing, Target, pole_distance, run_move, swing_weight};
 use crate::policy::{AxisMoves, Decision, Noted, Policy, SolveError, Step, StepKind};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
@@ -162,14 +162,12 @@ impl<'a> Placer<'a> {
         let value = match run.after {
             None => run.held,
             Some(to) => {
-                // The share of the swing done on reaching this target: the move into the first
-                // target of the path does not count.
-                let counted = previous.filter(|_| i >= run.start.max(1));
+                // The share of the swing done on reaching this target.
                 let share = match run.swing {
                     Swing::AtRapid(m) => f64::from(u8::from(i >= m)),
                     Swing::Weighted { on_pole, total } => {
-                        if let Some((tip, from_pole)) = counted {
-                            run.done += swing_weight(from_pole.max(pole), (t.pose.tip - tip).norm(), on_pole);
+                        if let Some((eps, length)) = run_move(run.start, i, previous, t.pose.tip, pole) {
+                            run.done += swing_weight(eps, length, on_pole);
                         }
                         if total > 0.0 { run.done / total } else { 0.0 }
                     }
