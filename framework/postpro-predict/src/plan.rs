@@ -778,24 +778,24 @@ impl Stepper {
             could_bind = true;
             // The room left at the junction once the speed is within its cap, from the state
             // after jerk `jj`.
-            let slack = |jj: f64| {
-                let (u1, v1, a1) = advance(u, v, a, jj, h);
+            // A state on the braking curve itself fits: the rounding of one step must not push it
+            // off (it would brake too hard, stop short and creep to the end).
+            let slack_of = |(u1, v1, a1): (f64, f64, f64)| {
                 let room = at - u1;
-                // A state on the braking curve itself fits: the rounding of one step must not
-                // push it off (it would brake too hard, stop short and creep to the end).
                 room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk) + 1e-9 * (1.0 + room.abs())
             };
-            let fits = |jj: f64| slack(jj) >= 0.0;
-            if !fits(j) {
+            let slack = |jj: f64| slack_of(advance(u, v, a, jj, h));
+            let at_j = slack_of((u1, v1, a1));
+            if at_j < 0.0 {
                 limit = why;
                 ahead = true;
-
-                j = if fits(floor) {
-                    largest_fitting(&slack, floor, j)
+                let at_floor = slack(floor);
+                j = if at_floor >= 0.0 {
+                    largest_fitting(&slack, (floor, at_floor), (j, at_j))
                 } else {
                     // The strongest braking does not fit either: the state braked too hard
                     // already, and easing is what helps. The best in the interval.
-                    largest_fitting_unimodal(&slack, floor, j)
+                    largest_fitting_unimodal(&slack, (floor, at_floor), (j, at_j))
                 };
                 (u1, v1, a1) = advance(u, v, a, j, h);
             }
@@ -813,10 +813,10 @@ impl Stepper {
 }
 
 /// The largest jerk in `[lo, hi]` whose `slack` is not negative, knowing `slack(hi) < 0` and
-/// `slack` falling with the jerk (`lo` when even it does not fit): regula falsi (Illinois), which converges in a few steps on these smooth curves,
-/// ending on the safe side.
-fn largest_fitting(slack: &dyn Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
-    let (mut f_lo, mut f_hi) = (slack(lo), slack(hi));
+/// `slack` falling with the jerk (`lo` when even it does not fit): regula falsi (Illinois), which
+/// converges in a few steps on these smooth curves, ending on the safe side. Each end comes with
+/// its slack, evaluated already.
+fn largest_fitting(slack: &dyn Fn(f64) -> f64, (mut lo, mut f_lo): (f64, f64), (mut hi, mut f_hi): (f64, f64)) -> f64 {
     if f_lo < 0.0 {
         return lo; // nothing fits: the strongest braking
     }
@@ -855,21 +855,26 @@ fn largest_fitting(slack: &dyn Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 
 
 /// The largest jerk in `[lo, hi]` whose `slack` is not negative when `slack` may rise then fall
 /// over the interval: a scan down from `hi`, then regula falsi between the first safe point and
-/// the unsafe one above it; with no safe point, the safest one.
-fn largest_fitting_unimodal(slack: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+/// the unsafe one above it; with no safe point, the safest one. Each end comes with its slack,
+/// evaluated already (and not evaluated again).
+fn largest_fitting_unimodal(slack: &dyn Fn(f64) -> f64, (lo, f_lo): (f64, f64), (hi, f_hi): (f64, f64)) -> f64 {
     const STEPS: usize = 4;
-    let mut above = hi;
+    let mut above = (hi, f_hi);
     let mut best = (f64::NEG_INFINITY, lo);
     for i in 0..=STEPS {
         let x = hi - (hi - lo) * i as f64 / STEPS as f64;
-        let f = slack(x);
+        let f = match x {
+            _ if x == hi => f_hi,
+            _ if x == lo => f_lo,
+            _ => slack(x),
+        };
         if f >= 0.0 {
-            return if i == 0 { x } else { largest_fitting(slack, x, above) };
+            return if i == 0 { x } else { largest_fitting(slack, (x, f), above) };
         }
         if f > best.0 {
             best = (f, x);
         }
-        above = x;
+        above = (x, f);
     }
     best.1
 }
