@@ -1,37 +1,55 @@
 //! Numbers as NC words: fixed decimals, rounded half away from zero, never `-0`, an explicit `+`
 //! where the dialect wants one. Integer arithmetic, so it is exact and fast.
 
-/// Writes `value` with `decimals` digits after the point into `out`.
-pub fn push_number(out: &mut String, value: f64, decimals: usize, plus: bool) {
+/// Writes `value` with `decimals` digits after the point into `out` (a `String`, a
+/// `CompactString`): one write.
+pub fn push_number<W: std::fmt::Write + ?Sized>(out: &mut W, value: f64, decimals: usize, plus: bool) {
+    // Writing to a string in memory cannot fail: the results are not looked at.
+    let mut buffer = [0; 32];
+    let _ = match fixed(&mut buffer, value, decimals, plus) {
+        Some(text) => out.write_str(text),
+        // Out of the exact range (no machine coordinate is): the standard formatting.
+        None => write!(out, "{value:.decimals$}"),
+    };
+}
+
+/// The text of `value` with `decimals` (at most 9) digits after the point, built in `buffer`;
+/// `None` out of the exact range of the integer arithmetic.
+fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Option<&str> {
     const POWERS: [u64; 10] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
     let decimals = decimals.min(9);
     let divisor = POWERS[decimals];
     let scaled = (value.abs() * divisor as f64).round();
     if !scaled.is_finite() || scaled >= 9.0e15 {
-        // Out of the exact range (no machine coordinate is): the standard formatting.
-        out.push_str(&format!("{value:.decimals$}"));
-        return;
+        return None;
     }
     let units = scaled as u64;
+    // At most a sign, 16 digits, the point and 9 decimals.
+    let mut length = 0;
+    let mut put = |bytes: &[u8]| {
+        buffer[length..length + bytes.len()].copy_from_slice(bytes);
+        length += bytes.len();
+    };
     if units == 0 {
         if plus {
-            out.push('+');
+            put(b"+");
         }
     } else if value < 0.0 {
-        out.push('-');
+        put(b"-");
     } else if plus {
-        out.push('+');
+        put(b"+");
     }
     let mut digits = itoa::Buffer::new();
-    out.push_str(digits.format(units / divisor));
+    put(digits.format(units / divisor).as_bytes());
     if decimals > 0 {
-        out.push('.');
-        let frac = digits.format(units % divisor);
-        for _ in frac.len()..decimals {
-            out.push('0');
+        put(b".");
+        let fraction = digits.format(units % divisor);
+        for _ in fraction.len()..decimals {
+            put(b"0");
         }
-        out.push_str(frac);
+        put(fraction.as_bytes());
     }
+    std::str::from_utf8(&buffer[..length]).ok()
 }
 
 /// `value` rounded to `decimals` digits, without trailing zeros (`6.096`, `10`, `0.5`): for
@@ -71,5 +89,25 @@ mod tests {
         assert_eq!(number(-0.0, 4, true), "+0.0000");
         assert_eq!(number(0.05, 3, false), "0.050");
         assert_eq!(number(1234567.891, 2, false), "1234567.89");
+    }
+
+    #[test]
+    fn the_longest_texts_and_those_out_of_range_are_whole() {
+        // The largest in range: a sign, 16 digits; 9 decimals.
+        assert_eq!(number(-8_999_999_999_999_998.0, 0, true), "-8999999999999998");
+        assert_eq!(number(-8_999_999.5, 9, true), "-8999999.500000000");
+        // Beyond it, the standard formatting.
+        assert_eq!(number(1e300, 2, false), format!("{:.2}", 1e300));
+        assert_eq!(number(f64::NAN, 3, false), "NaN");
+        assert_eq!(number(f64::NEG_INFINITY, 3, false), "-inf");
+    }
+
+    #[test]
+    fn a_compact_string_gets_the_same_text() {
+        for (value, decimals, plus) in [(12.3456, 3, false), (-0.0004, 3, true), (-8_999_999.5, 9, true)] {
+            let mut text = compact_str::CompactString::default();
+            super::push_number(&mut text, value, decimals, plus);
+            assert_eq!(text, number(value, decimals, plus));
+        }
     }
 }

@@ -13,6 +13,7 @@ use serde::Serialize;
 use crate::EmitError;
 use crate::dialect::{Dialect, TcpOrientation, TcpStyle};
 use crate::format::push_number;
+use compact_str::CompactString;
 
 pub use postpro_motion::Mode;
 
@@ -214,15 +215,16 @@ pub struct WorkOffsetWord {
     pub preset: Option<u32>,
 }
 
-/// One word: an address letter and its value.
+/// One word: an address letter and its value. Its texts are short and held inline (a motion
+/// block's words cost no allocation).
 #[derive(Clone, Debug, Serialize)]
 pub struct Word {
     /// The address (`X`, `A`, `A3`, `TX`).
-    pub letter: String,
+    pub letter: CompactString,
     /// The value (mm, degrees, or a vector component).
     pub value: f64,
     /// The value as the dialect writes it (`12.346`, `+12.346`).
-    pub text: String,
+    pub text: CompactString,
 }
 
 /// A hole of a canned cycle, for the template (`kind` = `cycle_hole`).
@@ -718,7 +720,7 @@ pub(crate) struct Formatter<'a> {
     failed: Option<EmitError>,
     next_n: u32,
     /// The texts last written, per axis (or per TCP word).
-    written: Vec<Option<String>>,
+    written: Vec<Option<CompactString>>,
     last_feed: Option<String>,
     feed_mode: &'static str,
     /// The annotations, as indices into `options.annotations` in order of step.
@@ -874,9 +876,9 @@ impl<'a> Formatter<'a> {
 
     /// A word of axis `i`.
     fn word(&self, letter: &str, value: f64, decimals: usize) -> Word {
-        let mut text = String::with_capacity(12);
+        let mut text = CompactString::default();
         push_number(&mut text, value, decimals, self.dialect.explicit_plus);
-        Word { letter: letter.to_string(), value, text }
+        Word { letter: letter.into(), value, text }
     }
 
     /// The words of the axes in `axes` whose text differs from what was last written (all of
@@ -929,9 +931,9 @@ impl<'a> Formatter<'a> {
                     // Heidenhain LN blocks carry a normal vector too: the tool vector (no 3D
                     // compensation).
                     for (n, v) in [("NX", a.x), ("NY", a.y), ("NZ", a.z)] {
-                        let mut t = String::with_capacity(12);
+                        let mut t = CompactString::default();
                         push_number(&mut t, v, 7, true);
-                        words.push(Word { letter: n.to_string(), value: v, text: t });
+                        words.push(Word { letter: n.into(), value: v, text: t });
                     }
                 }
                 for (c, w) in vector.into_iter().enumerate() {
@@ -1280,9 +1282,9 @@ impl<'a> Formatter<'a> {
             let planes_change =
                 previous.is_some_and(|(b, r)| (b - hole.bottom).abs() > 1e-9 || (r - hole.r_plane).abs() > 1e-9);
             previous = Some((hole.bottom, hole.r_plane));
-            let letter = self.machine.axes[axis].letter.clone();
-            let bottom =
-                Word { letter, value: (hole.bottom - self.shift(axis)) / self.unit, text: text(self, hole.bottom) };
+            let letter = self.machine.axes[axis].letter.as_str().into();
+            let value = (hole.bottom - self.shift(axis)) / self.unit;
+            let bottom = Word { letter, value, text: text(self, hole.bottom).into() };
             let pitch = match (cycle.kind, cycle.feed, cycle.rpm) {
                 (CycleKind::Tap, FeedWord::PerMinute(f), Some(rpm)) if rpm > 0.0 => Some(plain(self, f / rpm)),
                 (CycleKind::Tap, FeedWord::PerRevolution(p), _) => Some(plain(self, p)),

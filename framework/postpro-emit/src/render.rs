@@ -283,6 +283,7 @@ fn write_with<E>(
             dialect,
             out: std::io::BufWriter::with_capacity(1 << 16, &mut *scratch),
             shapes: HashMap::new(),
+            key: String::with_capacity(24),
             line: String::with_capacity(128),
             numbered: String::with_capacity(128),
             lines: start_lines,
@@ -373,6 +374,8 @@ struct Streaming<'s, 'env, 'o> {
     /// The scratch, a block of lines written at a time.
     out: std::io::BufWriter<&'o mut dyn Scratch>,
     shapes: HashMap<String, Shape>,
+    /// The shape of the block at hand ([`shape_key`]).
+    key: String,
     line: String,
     /// The line with its block number.
     numbered: String,
@@ -400,7 +403,7 @@ impl Streaming<'_, '_, '_> {
             *n = Some(MARKED_NUMBER);
         }
         for (k, w) in words.iter_mut().enumerate() {
-            w.text = format!("{MARK}W{k}{MARK}");
+            w.text = compact_str::format_compact!("{MARK}W{k}{MARK}");
         }
         if let Some(f) = feed {
             *f = format!("{MARK}F{MARK}");
@@ -441,7 +444,7 @@ impl Streaming<'_, '_, '_> {
             match p {
                 Piece::Text(t) => line.push_str(t),
                 Piece::Number => match n {
-                    Some(n) => line.push_str(&n.to_string()),
+                    Some(n) => line.push_str(itoa::Buffer::new().format(*n)),
                     None => return false,
                 },
                 Piece::Word(k) => match words.get(*k) {
@@ -478,15 +481,16 @@ fn motion_parts(
     }
 }
 
-/// The shape of a motion block: what its skeleton depends on.
-fn shape_key(block: &Block) -> Option<String> {
+/// The shape of a motion block, what its skeleton depends on, into `key`; false for a block of
+/// another kind.
+fn shape_key(block: &Block, key: &mut String) -> bool {
     let (kind, n, words, feed, note) = match block {
         Block::Rapid { n, words } => ('R', n, words, false, false),
         Block::Linear { n, words, feed, note } => ('L', n, words, feed.is_some(), note.is_some()),
         Block::ControlPoint { n, words, .. } => ('C', n, words, true, false),
-        _ => return None,
+        _ => return false,
     };
-    let mut key = String::with_capacity(24);
+    key.clear();
     key.push(kind);
     key.push(if n.is_some() { 'n' } else { '-' });
     key.push(if feed { 'f' } else { '-' });
@@ -495,12 +499,22 @@ fn shape_key(block: &Block) -> Option<String> {
         key.push_str(&w.letter);
         key.push(',');
     }
-    Some(key)
+    true
 }
 
 impl BlockSink for Streaming<'_, '_, '_> {
     fn block(&mut self, block: Block) -> Result<(), EmitError> {
-        let Some(key) = shape_key(&block) else {
+        let mut key = std::mem::take(&mut self.key);
+        let result = self.motion_block(block, &mut key);
+        self.key = key;
+        result
+    }
+}
+
+impl Streaming<'_, '_, '_> {
+    /// Writes `block` through the skeleton of its shape (`key` the scratch for it).
+    fn motion_block(&mut self, block: Block, key: &mut String) -> Result<(), EmitError> {
+        if !shape_key(&block, key) {
             let text = self.full(&block)?;
             let line = self.lines + 1;
             let number = self.write(&text)?;
@@ -510,21 +524,28 @@ impl BlockSink for Streaming<'_, '_, '_> {
             }
             return Ok(());
         };
-        if !self.shapes.contains_key(&key) {
+        let mut line = std::mem::take(&mut self.line);
+        // The usual case, a shape verified already: one look-up.
+        let filled = matches!(
+            self.shapes.get(key.as_str()),
+            Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line)
+        );
+        if filled {
+            let result = self.write(&line);
+            self.line = line;
+            return result.map(drop);
+        }
+        if !self.shapes.contains_key(key.as_str()) {
             let shape = self.skeleton(&block).map_or(Shape::Full, |s| Shape::Skeleton(s, 0));
             self.shapes.insert(key.clone(), shape);
         }
-        let mut line = std::mem::take(&mut self.line);
-        let result = match self.shapes.get(&key) {
-            Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line) => {
-                self.write(&line)
-            }
+        let result = match self.shapes.get(key.as_str()) {
             Some(Shape::Skeleton(pieces, checked)) => {
                 // Verify the skeleton against the full rendering; keep it only if they agree.
                 let full = self.full(&block)?;
                 let agrees = Self::fill(pieces, &block, &mut line) && line == full;
                 let next = if agrees { Shape::Skeleton(pieces.clone(), checked + 1) } else { Shape::Full };
-                self.shapes.insert(key, next);
+                self.shapes.insert(key.clone(), next);
                 self.write(&full)
             }
             _ => {
