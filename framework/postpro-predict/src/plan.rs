@@ -621,15 +621,21 @@ impl Stepper {
     /// The periods of a cruise the next steps would take one at a time with nothing to decide (at
     /// least two), if the motion cruises.
     fn cruise_periods(&self, track: &Track) -> Option<u64> {
-        let (piece, until) = self.cruise?;
-        let here = track.pieces.get(self.k)?;
-        if piece != self.k || self.a != 0.0 || self.v != here.velocity || self.v <= 0.0 {
+        let until = self.cruise_until(track.pieces.get(self.k)?)?;
+        if self.v <= 0.0 {
             return None;
         }
         // The steps m = 1, 2, … while u + m·v·h < until.
         let room = (until - self.u) / (self.v * self.h);
         let n = if room.is_finite() && room > 0.0 { room.ceil() as u64 - 1 } else { 0 };
         (n >= 2).then_some(n)
+    }
+
+    /// Where the cruise ends (the parameter the steps stay under), when the motion cruises at the
+    /// cap of the piece it is on (`here`) with nothing ahead within braking reach.
+    fn cruise_until(&self, here: &Piece) -> Option<f64> {
+        let (piece, until) = self.cruise?;
+        (piece == self.k && self.a == 0.0 && self.v == here.velocity).then_some(until)
     }
 
     /// The last piece the CNC sees from the current one (the window's end; the track's end), if
@@ -659,10 +665,7 @@ impl Stepper {
         }
         let here = &track.pieces[self.k];
         // Cruising where nothing can bind yet: the same step again.
-        if let Some((piece, until)) = self.cruise
-            && piece == self.k
-            && a == 0.0
-            && v == here.velocity
+        if let Some(until) = self.cruise_until(here)
             && u + v * h < until
         {
             return Some((0.0, here.velocity_limit, false));
