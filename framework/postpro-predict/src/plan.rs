@@ -645,6 +645,9 @@ impl Stepper {
             return Some(track.complete.then(|| track.len() - 1));
         }
         let counted = &track.counted;
+        // The counted pieces the track forgot are behind the motion: past them at once (the
+        // motion may have crossed many since the last look, cruising or stopping).
+        self.counted = self.counted.max(counted.base());
         while self.counted < counted.end() && counted[self.counted] < self.k {
             self.counted += 1;
         }
