@@ -29,7 +29,10 @@ pub use program::{
     PlaneOn, Prediction, Program, Tool, Word, WorkOffsetWord, build, build_blocks, check_mode, check_orientation,
     clean_comment, header, motion_options, tools,
 };
-pub use render::{Scratch, TEMPLATES, WriteError, builtin_template, render, write_program, write_program_with};
+pub use render::{
+    Annotated, DeferredBody, Scratch, TEMPLATES, WriteError, builtin_template, render, write_program,
+    write_program_deferred, write_program_with,
+};
 
 /// Why a program cannot be written.
 #[derive(Debug, thiserror::Error, miette::Diagnostic)]

@@ -534,6 +534,18 @@ pub struct PlaneOn {
 pub trait BlockSink {
     /// Takes the next block.
     fn block(&mut self, block: Block) -> Result<(), EmitError>;
+
+    /// The annotations of the steps up to `step` not written yet would be written here, before
+    /// the blocks that follow. A sink that writes the body before the annotations are known
+    /// notes where; the others need not.
+    fn place(&mut self, _step: usize) -> Result<(), EmitError> {
+        Ok(())
+    }
+
+    /// The annotations of some steps would not stand where [`place`](Self::place) says (a
+    /// B-spline run whose steps' places do not follow the steps): they cannot be put in
+    /// afterwards.
+    fn unplaceable(&mut self) {}
 }
 
 impl BlockSink for Vec<Block> {
@@ -541,6 +553,18 @@ impl BlockSink for Vec<Block> {
         self.push(block);
         Ok(())
     }
+}
+
+/// A comment block of `text` (numbered `n`, marking slowdown `slowdown` if given): cleaned
+/// ([`clean_comment`]) and cut to the dialect's line length.
+pub(crate) fn comment_block(dialect: &Dialect, text: &str, n: Option<u32>, slowdown: Option<usize>) -> Block {
+    let mut clean = clean_comment(dialect, text);
+    let room = dialect.max_line.saturating_sub(dialect.comment_open.len() + dialect.comment_close.len() + 8);
+    if clean.len() > room {
+        let cut = (0..=room).rev().find(|&i| clean.is_char_boundary(i)).unwrap_or(0);
+        clean.truncate(cut);
+    }
+    Block::Comment { n, text: clean.trim_end().to_string(), slowdown }
 }
 
 /// Text made fit for a comment of the dialect: parentheses become brackets where the dialect's
@@ -795,17 +819,8 @@ impl<'a> Formatter<'a> {
 
     /// A comment, marking slowdown `slowdown` if given.
     fn comment_of(&mut self, text: &str, slowdown: Option<usize>) {
-        let mut clean = clean_comment(self.dialect, text);
-        let room = self
-            .dialect
-            .max_line
-            .saturating_sub(self.dialect.comment_open.len() + self.dialect.comment_close.len() + 8);
-        if clean.len() > room {
-            let cut = (0..=room).rev().find(|&i| clean.is_char_boundary(i)).unwrap_or(0);
-            clean.truncate(cut);
-        }
         let n = self.n();
-        self.push(Block::Comment { n, text: clean.trim_end().to_string(), slowdown });
+        self.push(comment_block(self.dialect, text, n, slowdown));
     }
 
     /// The annotations of the steps up to `k` not yet written, as positions in `notes`.
@@ -825,8 +840,18 @@ impl<'a> Formatter<'a> {
         }
     }
 
+    /// Tells the sink that the annotations of the steps up to `step` not yet written go here.
+    fn place(&mut self, step: usize) {
+        if self.failed.is_none()
+            && let Err(e) = self.sink.place(step)
+        {
+            self.failed = Some(e);
+        }
+    }
+
     /// Writes the annotations of the steps up to `k` not yet written.
     fn notes_upto(&mut self, k: usize) {
+        self.place(k);
         for at in self.take_notes(k) {
             self.note(at);
         }
@@ -1341,8 +1366,20 @@ impl<'a> Formatter<'a> {
             })
             .collect();
         placed.sort_by_key(|&(place, _)| place);
+        // For a sink that puts the annotations in afterwards: before control point `k` go those
+        // of the steps placed at `k` or before, when the places follow the steps.
+        if !spline.steps.windows(2).all(|w| w[0].0 < w[1].0 && w[0].1 <= w[1].1) {
+            self.sink.unplaceable();
+        }
+        let mut listed = 0;
         let mut next = 0;
         let mut upto = |f: &mut Self, place: usize| {
+            while spline.steps.get(listed).is_some_and(|s| s.1 <= place) {
+                listed += 1;
+            }
+            if let Some(&(step, _)) = listed.checked_sub(1).and_then(|i| spline.steps.get(i)) {
+                f.place(step);
+            }
             while let Some(&(p, at)) = placed.get(next).filter(|(p, _)| *p <= place) {
                 let _ = p;
                 f.note(at);

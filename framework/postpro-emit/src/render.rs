@@ -9,7 +9,10 @@ use postpro_machine::model::Machine;
 
 use crate::EmitError;
 use crate::dialect::Dialect;
-use crate::program::{Block, BlockSink, Formatter, Header, Options, Program, Word, check_mode, header, tools};
+use crate::program::{
+    Annotation, Block, BlockSink, Formatter, Header, Options, Prediction, Program, Word, check_mode, comment_block,
+    header, tools,
+};
 use postpro_motion::MotionSink;
 
 /// The built-in templates, by dialect name.
@@ -246,10 +249,7 @@ fn write_with<E>(
 ) -> Result<(), WriteError<E>> {
     check_mode(dialect, facts.mode)?;
     let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
-    let mut env = Environment::new();
-    env.set_undefined_behavior(UndefinedBehavior::Strict);
-    env.set_keep_trailing_newline(true);
-    env.add_template(name, source).map_err(err)?;
+    let env = environment(name, source)?;
     let template = env.get_template(name).map_err(err)?;
     let mut header = header(facts, machine, dialect, options)?;
     let tools = tools(facts, dialect, options.units);
@@ -277,19 +277,8 @@ fn write_with<E>(
     let start_lines = start.matches('\n').count();
     // The body's lines go to the scratch; the scratch is free again once they are all there.
     let (slowdowns, body_numbering) = {
-        let mut body = Streaming {
-            state,
-            name,
-            dialect,
-            out: std::io::BufWriter::with_capacity(1 << 16, &mut *scratch),
-            shapes: HashMap::new(),
-            key: String::with_capacity(24),
-            line: String::with_capacity(128),
-            numbered: String::with_capacity(128),
-            lines: start_lines,
-            numbering: Numbering { next: count_blocks(dialect, &start), ..Numbering::default() },
-            slowdowns: HashMap::new(),
-        };
+        let numbering = Numbering { next: count_blocks(dialect, &start), ..Numbering::default() };
+        let mut body = Streaming::new((state, name, dialect), &mut *scratch, None, (start_lines, numbering));
         let mut formatter = Formatter::new(machine, dialect, options, &mut body);
         produce(&mut formatter).map_err(WriteError::Produce)?;
         formatter.finish()?;
@@ -302,13 +291,7 @@ fn write_with<E>(
         set_nc_lines(&mut header, |number| slowdowns.get(&number).copied());
         let start = capture(&header)?.state().call_macro("program_start", &[]).map_err(err)?;
         if start.matches('\n').count() != start_lines {
-            return Err(EmitError::Template {
-                name: name.to_string(),
-                message: "the header's line count depends on the lines of the worst slowdowns (nc_line, nc_block): \
-                          keep it the same whatever they are"
-                    .into(),
-            }
-            .into());
+            return Err(EmitError::Template { name: name.to_string(), message: LINE_COUNT_DEPENDS.into() }.into());
         }
         start
     } else {
@@ -324,6 +307,264 @@ fn write_with<E>(
     number_lines(dialect, &mut numbering, &end, &mut text);
     text.lines().try_for_each(|l| check_length(l, dialect))?;
     out.write_all(text.as_bytes()).map_err(|e| io_error(e).into())
+}
+
+/// What a program written body first ([`write_program_deferred`]) is completed with once its body
+/// is written.
+#[derive(Clone, Debug)]
+pub struct Annotated {
+    /// The motion program's counts (the header has them).
+    pub summary: postpro_motion::Summary,
+    /// The prediction's summary for the header.
+    pub prediction: Option<Prediction>,
+    /// The comments on the steps.
+    pub annotations: Vec<Annotation>,
+}
+
+/// The maker of a body written before what annotates it is known ([`write_program_deferred`]).
+pub trait DeferredBody {
+    /// Why it failed.
+    type Error;
+    /// Feeds the motion blocks to `sink`.
+    fn produce(&mut self, sink: &mut dyn MotionSink) -> Result<(), Self::Error>;
+    /// Once they are all fed, `writing` when the program can be written from this body: the
+    /// header's counts and prediction and the annotations, or `None` when the program is not to
+    /// be written from it after all (never asked for when not `writing`).
+    fn annotate(&mut self, writing: bool) -> Result<Option<Annotated>, Self::Error>;
+}
+
+/// [`write_program_with`] for a body produced before what annotates it is known (the main job's
+/// prediction pass writes it as it predicts). The body goes to `scratch` as `body` makes it, and
+/// where each step's annotations would stand to `places`; `body` then gives the header's counts,
+/// the prediction and the annotations, and the header, the body with the annotations' comments in
+/// their places and the end go to `out`: the program [`write_program_with`] writes with them in
+/// `facts` and `options` (whose own are not used).
+///
+/// Only where inserting a line changes nothing else: a dialect that numbers no blocks, without
+/// `block_numbers`, and a template with the streaming macros. Otherwise nothing is produced or
+/// written, and the result is `false`, as it is when `body` gives no annotations; nothing is
+/// written to `out` then.
+#[allow(clippy::too_many_arguments)]
+pub fn write_program_deferred<E>(
+    facts: &postpro_motion::Program,
+    machine: &Machine,
+    dialect: &Dialect,
+    options: &Options,
+    (name, source): (&str, &str),
+    out: &mut dyn Write,
+    (scratch, places): (&mut dyn Scratch, &mut dyn Scratch),
+    body: &mut dyn DeferredBody<Error = E>,
+) -> Result<bool, WriteError<E>> {
+    check_mode(dialect, facts.mode)?;
+    if dialect.numbered_blocks || options.block_numbers {
+        return Ok(false);
+    }
+    let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
+    let env = environment(name, source)?;
+    let template = env.get_template(name).map_err(err)?;
+    let tools = tools(facts, dialect, options.units);
+    let capture = |header: &Header| {
+        template
+            .render_captured(minijinja::context! { header => Value::from_serialize(header), tools => Value::from_serialize(&tools), blocks => Value::from(Vec::<Value>::new()) })
+            .map_err(err)
+    };
+    // The body without the prediction, which it does not depend on.
+    let unannotated = Options { prediction: None, annotations: Vec::new(), ..options.clone() };
+    let captured = capture(&header(facts, machine, dialect, &unannotated)?)?;
+    if !streamable(&captured) {
+        return Ok(false);
+    }
+    let placed = {
+        let places: &mut dyn Write = &mut *places;
+        let state = captured.state();
+        let mut streaming =
+            Streaming::new((state, name, dialect), &mut *scratch, Some(places), (0, Numbering::default()));
+        let mut formatter = Formatter::new(machine, dialect, &unannotated, &mut streaming);
+        body.produce(&mut formatter).map_err(WriteError::Produce)?;
+        formatter.finish()?;
+        streaming.out.flush().map_err(io_error)?;
+        if let Some((places, _)) = streaming.places.as_mut() {
+            places.flush().map_err(io_error)?;
+        }
+        !streaming.unplaceable
+    };
+    let annotated = body.annotate(placed).map_err(WriteError::Produce)?;
+    let Some(Annotated { summary, prediction, annotations }) = annotated.filter(|_| placed) else {
+        return Ok(false);
+    };
+    let facts = postpro_motion::Program { summary, ..facts.clone() };
+    let options = Options { prediction, annotations, ..unannotated };
+    let mut header = header(&facts, machine, dialect, &options)?;
+    let captured = capture(&header)?;
+    let state = captured.state();
+    let start = state.call_macro("program_start", &[]).map_err(err)?;
+    let start_lines = start.matches('\n').count();
+    // The annotations in the order of their steps, each where the formatter would have put it.
+    let mut notes: Vec<&Annotation> = options.annotations.iter().collect();
+    notes.sort_by_key(|a| a.step);
+    let mut finder = PlaceFinder { steps: notes.iter().map(|a| a.step).collect(), ..PlaceFinder::default() };
+    places.replay(&mut finder).map_err(io_error)?;
+    let mut insertions = std::collections::VecDeque::with_capacity(notes.len());
+    let mut slowdowns = HashMap::new();
+    let mut inserted = 0;
+    for (note, place) in notes.iter().zip(&finder.found) {
+        let block = comment_block(dialect, &note.text, None, note.slowdown);
+        let text = state.call_macro("block", &[Value::from_serialize(&block)]).map_err(err)?;
+        text.lines().try_for_each(|l| check_length(l, dialect))?;
+        if let Some(slowdown) = note.slowdown {
+            let line = start_lines + place.lines as usize + inserted + 1;
+            slowdowns.entry(slowdown).or_insert((line, block_number(&text)));
+        }
+        inserted += text.matches('\n').count() + 1;
+        insertions.push_back((place.offset, text + "\n"));
+    }
+    let end = state.call_macro("program_end", &[]).map_err(err)?;
+    let start = if header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty()) {
+        set_nc_lines(&mut header, |number| slowdowns.get(&number).copied());
+        let start = capture(&header)?.state().call_macro("program_start", &[]).map_err(err)?;
+        if start.matches('\n').count() != start_lines {
+            return Err(EmitError::Template { name: name.to_string(), message: LINE_COUNT_DEPENDS.into() }.into());
+        }
+        start
+    } else {
+        start
+    };
+    start.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(start.as_bytes()).map_err(io_error)?;
+    let mut body = Inserting { out: &mut *out, at: 0, insertions };
+    scratch.replay(&mut body).map_err(io_error)?;
+    body.finish().map_err(io_error)?;
+    end.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(end.as_bytes()).map_err(io_error)?;
+    Ok(true)
+}
+
+/// Why a header that names the lines of the worst slowdowns cannot be written.
+const LINE_COUNT_DEPENDS: &str = "the header's line count depends on the lines of the worst slowdowns (nc_line, \
+                                  nc_block): keep it the same whatever they are";
+
+/// A template environment holding `source` as `name`: strict about undefined values, keeping the
+/// trailing newline.
+fn environment<'s>(name: &'s str, source: &'s str) -> Result<Environment<'s>, EmitError> {
+    let mut env = Environment::new();
+    env.set_undefined_behavior(UndefinedBehavior::Strict);
+    env.set_keep_trailing_newline(true);
+    env.add_template(name, source)
+        .map_err(|e| EmitError::Template { name: name.to_string(), message: describe(&e) })?;
+    Ok(env)
+}
+
+/// Where the annotations of the steps up to `step` stand in a body written before they are
+/// known: before the byte `offset` of the body, after its first `lines` lines.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Place {
+    step: u64,
+    offset: u64,
+    lines: u64,
+}
+
+impl Place {
+    const SIZE: usize = 24;
+
+    fn to_bytes(self) -> [u8; Self::SIZE] {
+        let mut bytes = [0; Self::SIZE];
+        for (chunk, value) in bytes.chunks_exact_mut(8).zip([self.step, self.offset, self.lines]) {
+            chunk.copy_from_slice(&value.to_le_bytes());
+        }
+        bytes
+    }
+
+    fn from_bytes(bytes: &[u8; Self::SIZE]) -> Place {
+        let field = |k: usize| {
+            let mut value = [0; 8];
+            value.copy_from_slice(&bytes[8 * k..8 * k + 8]);
+            u64::from_le_bytes(value)
+        };
+        Place { step: field(0), offset: field(1), lines: field(2) }
+    }
+}
+
+/// Reads the places of a body as they are replayed into it, and finds for each of `steps`
+/// (ascending) the place its annotation goes: the first, from where the one before was found,
+/// whose step is not below it (the formatter writes the annotations of the steps up to its own).
+#[derive(Debug, Default)]
+struct PlaceFinder {
+    steps: Vec<usize>,
+    found: Vec<Place>,
+    partial: Vec<u8>,
+}
+
+impl Write for PlaceFinder {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let mut rest = buf;
+        while !rest.is_empty() {
+            let want = Place::SIZE - self.partial.len();
+            let (head, tail) = rest.split_at(want.min(rest.len()));
+            self.partial.extend_from_slice(head);
+            rest = tail;
+            if let Ok(record) = <&[u8; Place::SIZE]>::try_from(self.partial.as_slice()) {
+                let place = Place::from_bytes(record);
+                self.partial.clear();
+                while let Some(&step) = self.steps.get(self.found.len())
+                    && place.step >= step as u64
+                {
+                    self.found.push(place);
+                }
+            }
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Copies a body to `out` with texts inserted before given byte offsets (ascending).
+struct Inserting<'a> {
+    out: &'a mut dyn Write,
+    /// The offset of the next byte of the body.
+    at: u64,
+    insertions: std::collections::VecDeque<(u64, String)>,
+}
+
+impl Inserting<'_> {
+    /// Writes the insertions that stand at or before offset `limit`.
+    fn insert_upto(&mut self, limit: u64) -> std::io::Result<()> {
+        while let Some((offset, _)) = self.insertions.front()
+            && *offset <= limit
+        {
+            if let Some((_, text)) = self.insertions.pop_front() {
+                self.out.write_all(text.as_bytes())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the insertions at the body's end (none is ever dropped).
+    fn finish(&mut self) -> std::io::Result<()> {
+        self.insert_upto(u64::MAX)
+    }
+}
+
+impl Write for Inserting<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let mut rest = buf;
+        while !rest.is_empty() {
+            self.insert_upto(self.at)?;
+            let next = self.insertions.front().map_or(u64::MAX, |(offset, _)| *offset);
+            let take = usize::try_from(next - self.at).unwrap_or(usize::MAX).min(rest.len());
+            let (head, tail) = rest.split_at(take);
+            self.out.write_all(head)?;
+            self.at += take as u64;
+            rest = tail;
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
 }
 
 /// The blocks `text` holds (each numbered line) in `dialect`.
@@ -374,6 +615,13 @@ struct Streaming<'s, 'env, 'o> {
     /// The scratch, a block of lines written at a time.
     out: std::io::BufWriter<&'o mut dyn Scratch>,
     shapes: HashMap<String, Shape>,
+    /// Bytes written so far (to the scratch).
+    bytes: u64,
+    /// Where the annotations of each step would go ([`Place`]), when the body is written before
+    /// they are known; the last step noted.
+    places: Option<(std::io::BufWriter<&'o mut dyn Write>, Option<usize>)>,
+    /// Some annotation would not stand where the places say.
+    unplaceable: bool,
     /// The shape of the block at hand ([`shape_key`]).
     key: String,
     line: String,
@@ -387,6 +635,34 @@ struct Streaming<'s, 'env, 'o> {
 }
 
 const MARK: char = '\u{1}';
+
+impl<'s, 'env, 'o> Streaming<'s, 'env, 'o> {
+    /// Writes blocks with the macros of `state` into `scratch` (and, with `places`, where each
+    /// step's annotations would go), counting from `lines` lines and `numbering`.
+    fn new(
+        (state, name, dialect): (&'s minijinja::State<'s, 'env>, &'s str, &'s Dialect),
+        scratch: &'o mut dyn Scratch,
+        places: Option<&'o mut dyn Write>,
+        (lines, numbering): (usize, Numbering),
+    ) -> Self {
+        Streaming {
+            state,
+            name,
+            dialect,
+            out: std::io::BufWriter::with_capacity(1 << 16, scratch),
+            shapes: HashMap::new(),
+            bytes: 0,
+            places: places.map(|p| (std::io::BufWriter::with_capacity(1 << 16, p), None)),
+            unplaceable: false,
+            key: String::with_capacity(24),
+            line: String::with_capacity(128),
+            numbered: String::with_capacity(128),
+            lines,
+            numbering,
+            slowdowns: HashMap::new(),
+        }
+    }
+}
 
 impl Streaming<'_, '_, '_> {
     fn full(&self, block: &Block) -> Result<String, EmitError> {
@@ -509,6 +785,20 @@ impl BlockSink for Streaming<'_, '_, '_> {
         self.key = key;
         result
     }
+
+    fn place(&mut self, step: usize) -> Result<(), EmitError> {
+        let Some((places, last)) = self.places.as_mut() else { return Ok(()) };
+        if *last == Some(step) {
+            return Ok(());
+        }
+        *last = Some(step);
+        let place = Place { step: step as u64, offset: self.bytes, lines: self.lines as u64 };
+        places.write_all(&place.to_bytes()).map_err(io_error)
+    }
+
+    fn unplaceable(&mut self) {
+        self.unplaceable = true;
+    }
 }
 
 impl Streaming<'_, '_, '_> {
@@ -568,6 +858,7 @@ impl Streaming<'_, '_, '_> {
             for line in text.lines() {
                 check_length(line, dialect)?;
             }
+            self.bytes += text.len() as u64 + 1;
             return out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).map(|()| None).map_err(io_error);
         }
         let mut first = None;
@@ -578,6 +869,7 @@ impl Streaming<'_, '_, '_> {
             self.numbered.push_str(line);
             check_length(&self.numbered, dialect)?;
             self.numbered.push('\n');
+            self.bytes += self.numbered.len() as u64;
             out.write_all(self.numbered.as_bytes()).map_err(io_error)?;
         }
         Ok(first)
@@ -591,4 +883,47 @@ fn check_length(line: &str, dialect: &Dialect) -> Result<(), EmitError> {
         return Err(EmitError::LineTooLong { dialect: dialect.name, max: dialect.max_line, start });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texts_go_in_before_their_offsets_whatever_the_chunks_the_body_comes_in() {
+        let body = b"G1 X1\nG1 X2\nG1 X3\n";
+        let insertions = [(0, "(a)\n"), (6, "(b)\n"), (6, "(c)\n"), (18, "(d)\n"), (u64::MAX, "(e)\n")];
+        for chunk in [1, 5, 6, 7, 64] {
+            let mut out = Vec::new();
+            let queue = insertions.iter().map(|&(at, t)| (at, t.to_string())).collect();
+            let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue };
+            for piece in body.chunks(chunk) {
+                inserting.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
+            }
+            inserting.finish().unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(
+                String::from_utf8_lossy(&out),
+                "(a)\nG1 X1\n(b)\n(c)\nG1 X2\nG1 X3\n(d)\n(e)\n",
+                "chunks of {chunk}"
+            );
+        }
+    }
+
+    #[test]
+    fn each_step_finds_the_first_place_from_the_last_one_found_whose_step_reaches_it() {
+        let places = [(3, 10, 1), (5, 20, 2), (9, 30, 3), (usize::MAX, 40, 4)].map(|(step, offset, lines)| Place {
+            step: step as u64,
+            offset,
+            lines,
+        });
+        let bytes: Vec<u8> = places.iter().flat_map(|p| p.to_bytes()).collect();
+        for chunk in [1, 7, 24, 100] {
+            let mut finder = PlaceFinder { steps: vec![0, 3, 4, 5, 6, 12], ..PlaceFinder::default() };
+            for piece in bytes.chunks(chunk) {
+                finder.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
+            }
+            let offsets: Vec<u64> = finder.found.iter().map(|p| p.offset).collect();
+            assert_eq!(offsets, [10, 10, 20, 20, 30, 40], "chunks of {chunk}");
+        }
+    }
 }
