@@ -79,6 +79,10 @@ pub(crate) struct EmitArgs {
     /// Print on standard error how long each pass took and the throughput (CL points per second).
     #[arg(long)]
     timing: bool,
+    /// Write the program in a pass of its own even where the prediction pass can write it as it
+    /// goes (the same program, more slowly: for the tests that compare the two).
+    #[arg(long, hide = true)]
+    three_passes: bool,
 }
 
 /// `--arcs`.
@@ -234,6 +238,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
         insert_verbatim: args.insert == InsertArg::Verbatim,
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
         timing: args.timing,
+        three_passes: args.three_passes,
     };
     crate::stream::run(&request)
 }

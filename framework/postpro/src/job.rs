@@ -279,6 +279,28 @@ pub(crate) fn planes_for(
     dialect: &Dialect,
     survey: &postpro_motion::Survey,
 ) -> Option<postpro_motion::PlaneKind> {
+    match plane_kind(machine, mode, dialect) {
+        // Simultaneous motion: there is no set-up to speak of.
+        Some(Ok(_)) if survey.simultaneous => None,
+        Some(Ok(kind)) => Some(kind),
+        Some(Err(why)) => {
+            if survey.tilted && mode != Mode::Tcp {
+                eprintln!("note: the 3+2 set-ups are written as axis values, not in working planes: {why}");
+            }
+            None
+        }
+        None => None,
+    }
+}
+
+/// The working planes a program's 3+2 set-ups can stand in, in `dialect` on `machine` in `mode`
+/// (whatever its steps): `Err` says why none can, `None` when the machine has no rotary axis
+/// carrying the part.
+pub(crate) fn plane_kind(
+    machine: &Machine,
+    mode: Mode,
+    dialect: &Dialect,
+) -> Option<Result<postpro_motion::PlaneKind, String>> {
     let chain = &machine.chain;
     let why = if dialect.planes.is_none() {
         format!("the {} dialect has no working planes", dialect.name)
@@ -286,16 +308,10 @@ pub(crate) fn planes_for(
         format!("{} mode writes no working planes", mode.name())
     } else if !chain.tool.is_empty() {
         format!("working planes are written for machines whose rotary axes carry the part, not {}", machine.name)
-    } else if survey.simultaneous {
-        // Simultaneous motion: there is no set-up to speak of.
-        return None;
     } else {
-        return dialect.planes.filter(|_| !chain.part.is_empty());
+        return dialect.planes.filter(|_| !chain.part.is_empty()).map(Ok);
     };
-    if survey.tilted && mode != Mode::Tcp {
-        eprintln!("note: the 3+2 set-ups are written as axis values, not in working planes: {why}");
-    }
-    None
+    Some(Err(why))
 }
 
 /// The motion program of another solved tool path of the same machine (a re-oriented program),

@@ -2,7 +2,7 @@
 //! the run has taken a second (short runs stay quiet); it advances with how far each of the job's
 //! passes has read the CL file.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
@@ -22,7 +22,7 @@ pub(crate) struct Progress {
     delay: Duration,
     len: Cell<u64>,
     /// How long each pass takes per byte, about (relative).
-    weights: Vec<u64>,
+    weights: RefCell<Vec<u64>>,
     /// Where the current pass starts on the bar and its weight.
     pass: Cell<(u64, u64)>,
     items: Cell<u32>,
@@ -45,7 +45,7 @@ impl Progress {
             bar.set_style(style);
             (bar, Cell::new(Some(target)))
         });
-        let (len, weights) = (Cell::new(1), weights.to_vec());
+        let (len, weights) = (Cell::new(1), RefCell::new(weights.to_vec()));
         Progress { bar, started: Instant::now(), delay, len, weights, pass: Cell::new((0, 1)), items: Cell::new(0) }
     }
 
@@ -53,14 +53,21 @@ impl Progress {
     pub(crate) fn set_len(&self, len: u64) {
         self.len.set(len.max(1));
         if let Some((bar, _)) = &self.bar {
-            bar.set_length(self.len.get() * self.weights.iter().sum::<u64>());
+            bar.set_length(self.len.get() * self.weights.borrow().iter().sum::<u64>());
         }
+    }
+
+    /// The passes' weights from now on (the job learnt how many passes it makes).
+    pub(crate) fn set_weights(&self, weights: &[u64]) {
+        *self.weights.borrow_mut() = weights.to_vec();
+        self.set_len(self.len.get());
     }
 
     /// Pass `index` (from 0) starts, doing `what`.
     pub(crate) fn pass(&self, index: usize, what: &str) {
-        let before: u64 = self.weights.iter().take(index).sum();
-        self.pass.set((before * self.len.get(), self.weights.get(index).copied().unwrap_or(1)));
+        let weights = self.weights.borrow();
+        let before: u64 = weights.iter().take(index).sum();
+        self.pass.set((before * self.len.get(), weights.get(index).copied().unwrap_or(1)));
         if let Some((bar, _)) = &self.bar {
             bar.set_message(what.to_string());
             bar.set_position(self.pass.get().0);

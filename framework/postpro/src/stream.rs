@@ -1,5 +1,5 @@
-//! The main job streamed: the CL file is read three times, a window at a time ([`ClFile`]), and
-//! nothing proportional to its length is held but a few bits per CL point.
+//! The main job streamed: the CL file is read two or three times, a window at a time
+//! ([`ClFile`]), and nothing proportional to its length is held but a few bits per CL point.
 //!
 //! 1. **Survey**: the reader's items, their targets and the policy's first pass (the branch
 //!    graph), the tools and their changes, whether the tool turns while cutting (the mode `auto`
@@ -7,9 +7,14 @@
 //! 2. **Prediction**: the items again, the policy's second pass, the linearization and the motion
 //!    program, each a stage handing on to the next; the prediction reads the blocks as they come
 //!    and keeps its look-ahead; the steps are surveyed for the 3+2 set-ups.
-//! 3. **Writing**: the same stages again, the motion program now in its final frame, formatted and
+//! 3. **Writing**: the same stages again, the motion program in its final frame, formatted and
 //!    rendered block by block into a scratch file beside the output, the travels checked; the
 //!    header (which names the lines of the worst slowdowns) is written last, before the body.
+//!
+//! Where the program does not depend on what the prediction pass finds ([`Passes::speculates`]),
+//! the prediction pass writes the body as it goes and the slowdowns' comments are put in
+//! afterwards ([`Speculation`], `postpro_emit::write_program_deferred`): the same program, without
+//! the third pass.
 //!
 //! Every pass runs the same stages on the same items, so the step and block numbers the
 //! prediction's marks name are those of the program written. An error in any pass leaves
@@ -71,6 +76,8 @@ pub(crate) struct Request<'a> {
     pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
     /// Say how long each pass took (`--timing`).
     pub(crate) timing: bool,
+    /// Write the program in a pass of its own even where the prediction pass could (to compare).
+    pub(crate) three_passes: bool,
 }
 
 /// What the first pass found.
@@ -243,7 +250,14 @@ impl Predicting<'_> {
 
 impl MotionSink for Predicting<'_> {
     fn block(&mut self, block: postpro_motion::Block) {
-        self.reader.block(&mut self.blocks, self.machine, &block);
+        self.see(&block);
+    }
+}
+
+impl Predicting<'_> {
+    /// Predicts as far as the blocks so far, and `block`, let it.
+    fn see(&mut self, block: &postpro_motion::Block) {
+        self.reader.block(&mut self.blocks, self.machine, block);
         let done = self.predictor.advance(&self.blocks);
         self.take(done);
         let from = self.predictor.needs_from(&self.blocks);
@@ -276,11 +290,328 @@ impl MotionSink for Checked<'_> {
     }
 }
 
+/// The blocks of the prediction pass to the prediction, then on to `next` (the program written
+/// as the prediction goes).
+struct PredictAndWrite<'s, 'a> {
+    predicting: &'s mut Predicting<'a>,
+    next: &'s mut dyn MotionSink,
+}
+
+impl MotionSink for PredictAndWrite<'_, '_> {
+    fn block(&mut self, block: postpro_motion::Block) {
+        self.predicting.see(&block);
+        self.next.block(block);
+    }
+}
+
+/// What the passes after the survey share.
+struct Passes<'a> {
+    how: &'a Request<'a>,
+    file: &'a ClFile,
+    machine: &'a Machine,
+    setup: &'a crate::setup::JobSetup,
+    mode: postpro_motion::Mode,
+    surveyed: &'a Surveyed,
+    /// The stages from the items to motion blocks, with the job of the prediction pass.
+    pass: Pass<'a>,
+    motion_options: &'a postpro_motion::Options,
+    /// How the program is written, its prediction and annotations aside.
+    options: &'a Options,
+    /// When the survey started, and when the prediction pass ended (since then).
+    started: std::time::Instant,
+    predicted_at: std::cell::Cell<Option<std::time::Duration>>,
+}
+
+/// What the prediction pass found, for the program.
+struct Concluded {
+    summary: postpro_motion::Summary,
+    survey: Survey,
+    shape: Shape,
+    /// The working planes the program's 3+2 set-ups are written in.
+    planes: Option<postpro_motion::PlaneKind>,
+    /// The header's prediction and the slowdowns' comments.
+    prediction: Option<postpro_emit::Prediction>,
+    annotations: Vec<postpro_emit::Annotation>,
+}
+
+/// What the main job reports once the program is written.
+struct Outcome {
+    summary: postpro_motion::Summary,
+    /// Predicted cycle time, time lost (s), slowdowns marked.
+    predicted_time: Option<(f64, f64, usize)>,
+    /// The passes over the CL file: 2 where the prediction pass wrote the program, else 3.
+    passes: u8,
+}
+
+impl Passes<'_> {
+    /// The prediction pass, then the program into `out`: written by the prediction pass as it
+    /// goes where the program does not depend on what the pass finds ([`Self::speculates`]),
+    /// else (or where the 3+2 set-ups it finds are written in working planes) by a pass of its own.
+    fn predict_and_write(&self, out: &mut dyn Write, predicting: Option<Predicting<'_>>) -> Result<Outcome, Failure> {
+        let concluded = match predicting {
+            Some(predicting) if self.speculates() => {
+                let mut body = Speculation {
+                    passes: self,
+                    predicting: Some(predicting),
+                    travel: Vec::new(),
+                    passed: None,
+                    concluded: None,
+                };
+                let output = self.how.output;
+                let (mut scratch, mut places) =
+                    (ScratchFile::beside(output, "body")?, ScratchFile::beside(output, "places")?);
+                let facts = self.facts(self.pass.job, postpro_motion::Summary::default());
+                let template = (self.how.template.0.as_str(), self.how.template.1.as_str());
+                let written = postpro_emit::write_program_deferred(
+                    &facts,
+                    self.machine,
+                    self.how.dialect,
+                    self.options,
+                    template,
+                    out,
+                    (&mut scratch.file, &mut places.file),
+                    &mut body,
+                )
+                .map_err(|e| match e {
+                    WriteError::Emit(e) => Failure::Emit(e),
+                    WriteError::Produce(e) => e,
+                })?;
+                match (written, body.concluded) {
+                    (true, Some(c)) => {
+                        return Ok(Outcome { predicted_time: predicted_time(&c), summary: c.summary, passes: 2 });
+                    }
+                    // Working planes: the program is written by a pass of its own.
+                    (false, Some(c)) => c,
+                    // Nothing was produced (the template or the dialect does not allow it).
+                    _ => match body.predicting {
+                        Some(predicting) => self.predict(Some(predicting))?,
+                        None => return Err(Failure::Refused(format!("error: the program was not made; {WRITTEN}\n"))),
+                    },
+                }
+            }
+            predicting => self.predict(predicting)?,
+        };
+        self.write_pass(out, concluded)
+    }
+
+    /// True when the program the writing pass would write is the one the prediction pass makes as
+    /// it goes, but for the slowdowns' comments, which can be put in their places afterwards: a
+    /// prediction to write, the dialect's own template, no block numbers (a comment put in would
+    /// renumber the blocks after it), no rotary brakes (whether they lock depends on the steps
+    /// that follow), and no working planes (the frame of the blocks of a 3+2 set-up in one
+    /// depends on them), as where the tool turns while cutting. Whether the 3+2 set-ups stand in
+    /// working planes is known only at the end of the pass: if they do after all, the program is
+    /// written by a pass of its own.
+    fn speculates(&self) -> bool {
+        let how = self.how;
+        let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(how.template.1.as_str());
+        let no_planes = !how.shapes.planes
+            || !matches!(crate::job::plane_kind(self.machine, self.mode, how.dialect), Some(Ok(_)))
+            || self.surveyed.turns_tool;
+        how.prediction.is_some()
+            && !how.three_passes
+            && builtin
+            && !how.block_numbers
+            && !how.dialect.numbered_blocks
+            && self.machine.axes.iter().all(|a| a.clamp.is_none())
+            && no_planes
+    }
+
+    /// The prediction pass alone (the solving pass, without a prediction).
+    fn predict(&self, mut predicting: Option<Predicting<'_>>) -> Result<Concluded, Failure> {
+        let mut dropped = Dropped;
+        let sink: &mut dyn MotionSink = match predicting.as_mut() {
+            Some(p) => p,
+            None => &mut dropped,
+        };
+        let choice = (&self.surveyed.choice, None);
+        let passed =
+            self.pass.run(self.motion_options, SetUps::default(), choice, true, sink).map_err(Failure::Pass)?;
+        self.conclude(passed, predicting)
+    }
+
+    /// The end of the prediction pass: its warnings, the working planes, the prediction's header
+    /// and comments.
+    fn conclude(&self, passed: Passed, predicting: Option<Predicting<'_>>) -> Result<Concluded, Failure> {
+        let (how, file, progress) = (self.how, self.file, self.pass.progress);
+        let strict = how.setup.strict;
+        let Passed { summary, survey, shape } = passed;
+        let survey = survey.unwrap_or_default();
+        let warnings = progress.suspend(|| warn_all(file, &summary.warnings, strict));
+        if strict && warnings > 0 {
+            return Err(Failure::Refused(format!(
+                "error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"
+            )));
+        }
+        let planes = if how.shapes.planes {
+            crate::job::planes_for(self.machine, self.mode, how.dialect, &survey)
+        } else {
+            None
+        };
+        let (prediction, annotations) = match (predicting, how.prediction) {
+            (Some(mut p), Some((args, _))) => {
+                let done = p.predictor.finish(&p.blocks);
+                p.take(done);
+                progress.suspend(|| {
+                    for note in &p.blocks.notes {
+                        eprintln!("note: {}: prediction: {}", file.location(note.span.start as usize), note.text);
+                    }
+                });
+                let marks = p.marks.finish();
+                let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
+                let header =
+                    crate::predict::header((&totals, &operations), args, self.mode, &marks, (self.machine, file));
+                (Some(header), crate::predict::annotations(&marks, self.machine))
+            }
+            _ => (None, Vec::new()),
+        };
+        Ok(Concluded { summary, survey, shape, planes, prediction, annotations })
+    }
+
+    /// The motion program's facts for the header, with `job` and `summary`.
+    fn facts(&self, job: &postpro_motion::Job, summary: postpro_motion::Summary) -> postpro_motion::Program {
+        postpro_motion::Program {
+            mode: self.mode,
+            part: self.surveyed.info.part_name.clone(),
+            work_offset: job.work_offset,
+            origin: job.frame.describe(),
+            tools: job.tooling.tools.clone(),
+            blocks: Vec::new(),
+            summary,
+        }
+    }
+
+    /// The writing pass: the stages again, the motion program in its final frame, formatted and
+    /// rendered block by block into a scratch file; the header, which names the lines of the
+    /// worst slowdowns, then the body into `out`.
+    fn write_pass(&self, out: &mut dyn Write, c: Concluded) -> Result<Outcome, Failure> {
+        let (how, progress) = (self.how, self.pass.progress);
+        self.predicted_at.set(self.predicted_at.get().or(Some(self.elapsed())));
+        progress.pass(2, "writing the program");
+        let mut job = self.pass.job.clone();
+        if c.planes.is_some() {
+            job.frame = postpro_motion::part_zero_frame(self.pass.kin);
+        }
+        let mut motion_options = self.motion_options.clone();
+        motion_options.planes = c.planes;
+        let predicted_time = predicted_time(&c);
+        let Concluded { summary, survey, shape, prediction, annotations, .. } = c;
+        let options = Options { prediction, annotations, ..self.options.clone() };
+        let facts = self.facts(&job, summary.clone());
+        let pass = Pass { job: &job, ..self.pass };
+        let mut scratch = ScratchFile::beside(how.output, "body")?;
+        let mut travel = Vec::new();
+        let mut produce = |sink: &mut dyn MotionSink| -> Result<(), PassError> {
+            let work_offset_at = self.setup.work_offset_at.as_ref();
+            let mut checked =
+                Checked { travel: TravelCheck::new(self.machine, work_offset_at), error: None, next: sink };
+            let shape = Some(shape.clone());
+            pass.run(&motion_options, survey.set_ups.clone(), (&self.surveyed.choice, shape), false, &mut checked)?;
+            if let Some(e) = checked.error {
+                return Err(PassError::Motion(e));
+            }
+            travel = checked.travel.finish();
+            Ok(())
+        };
+        let template = (how.template.0.as_str(), how.template.1.as_str());
+        postpro_emit::write_program_with(
+            &facts,
+            self.machine,
+            how.dialect,
+            &options,
+            template,
+            out,
+            &mut scratch.file,
+            &mut produce,
+        )
+        .map_err(|e| match e {
+            WriteError::Emit(e) => Failure::Emit(e),
+            WriteError::Produce(e) => Failure::Pass(e),
+        })?;
+        self.travel_warnings(&travel)?;
+        Ok(Outcome { summary, predicted_time, passes: 3 })
+    }
+
+    /// Reports the travel check's warnings (refused with `--strict`).
+    fn travel_warnings(&self, travel: &[postpro_motion::Warning]) -> Result<(), Failure> {
+        let strict = self.how.setup.strict;
+        let count = self.pass.progress.suspend(|| warn_all(self.file, travel, strict));
+        if strict && count > 0 {
+            return Err(Failure::Refused(format!(
+                "error: {count} warning(s), and --strict makes them errors; {WRITTEN}\n"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The time since the survey started.
+    fn elapsed(&self) -> std::time::Duration {
+        self.started.elapsed()
+    }
+}
+
+/// The predicted cycle time, the time lost and the slowdowns marked, with a prediction.
+fn predicted_time(c: &Concluded) -> Option<(f64, f64, usize)> {
+    c.prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns))
+}
+
+/// The prediction pass writing the program as it goes (see [`Passes::speculates`]).
+struct Speculation<'p, 'a> {
+    passes: &'p Passes<'a>,
+    /// Until the pass ends.
+    predicting: Option<Predicting<'a>>,
+    /// The travel check's warnings.
+    travel: Vec<postpro_motion::Warning>,
+    passed: Option<Passed>,
+    /// Once the pass ended.
+    concluded: Option<Concluded>,
+}
+
+impl postpro_emit::DeferredBody for Speculation<'_, '_> {
+    type Error = Failure;
+
+    fn produce(&mut self, sink: &mut dyn MotionSink) -> Result<(), Failure> {
+        let passes = self.passes;
+        let Some(predicting) = self.predicting.as_mut() else { return Ok(()) };
+        let work_offset_at = passes.setup.work_offset_at.as_ref();
+        let mut checked = Checked { travel: TravelCheck::new(passes.machine, work_offset_at), error: None, next: sink };
+        let mut both = PredictAndWrite { predicting, next: &mut checked };
+        let choice = (&passes.surveyed.choice, None);
+        let passed = passes.pass.run(passes.motion_options, SetUps::default(), choice, true, &mut both);
+        let passed = passed.map_err(Failure::Pass)?;
+        if let Some(e) = checked.error {
+            return Err(Failure::Pass(PassError::Motion(e)));
+        }
+        self.travel = checked.travel.finish();
+        self.passed = Some(passed);
+        Ok(())
+    }
+
+    fn annotate(&mut self, writing: bool) -> Result<Option<postpro_emit::Annotated>, Failure> {
+        let Some(passed) = self.passed.take() else { return Ok(None) };
+        let passes = self.passes;
+        passes.predicted_at.set(Some(passes.elapsed()));
+        let concluded = passes.conclude(passed, self.predicting.take())?;
+        if !writing || concluded.planes.is_some() {
+            self.concluded = Some(concluded);
+            return Ok(None);
+        }
+        passes.travel_warnings(&self.travel)?;
+        let annotated = postpro_emit::Annotated {
+            summary: concluded.summary.clone(),
+            prediction: concluded.prediction.clone(),
+            annotations: concluded.annotations.clone(),
+        };
+        self.concluded = Some(concluded);
+        Ok(Some(annotated))
+    }
+}
+
 /// The main job, streamed (see the module's documentation), with a progress bar on a terminal.
 pub(crate) fn run(request: &Request<'_>) -> ExitCode {
     // The passes' shares of the time, as measured on a million CL points (survey 0.5 s,
-    // prediction 4.4 s, writing 3.3 s).
-    let progress = Progress::on_stderr(&[1, 8, 6]);
+    // prediction 4.3 s, writing 1.8 s; prediction and writing in one pass 5.4 s).
+    let progress = Progress::on_stderr(&[1, 8, 4]);
     let code = main_job(request, &progress).unwrap_or_else(|code| code);
     progress.finish();
     code
@@ -342,68 +673,23 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
     }
     progress.suspend(|| crate::emit::check_writing(dialect, mode, how.tcp_orientation))?;
 
-    // 2. The prediction, and the survey of the steps.
-    progress.pass(1, if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });
+    // 2. The prediction and the survey of the steps; 3. the program. Where nothing in the program
+    // waits for the prediction's end, the prediction pass writes it as it goes ([`Speculation`]).
     let surveyed_at = started.elapsed();
     let unknown: BTreeSet<String> =
         surveyed.info.uninterpreted.iter().filter(|(_, u)| u.unknown).map(|(w, _)| w.clone()).collect();
     let mut motion_options = postpro_emit::motion_options(dialect, mode, !how.shapes.linear_arcs);
     motion_options.cycles = !how.shapes.expand_cycles;
+    job.work_offset = setup.work_offset.unwrap_or_else(|| dialect.default_work_offset());
     let timing =
         if mode.feeds_the_tip() { postpro_predict::Timing::TipFeed } else { postpro_predict::Timing::AxisFeed };
-    let mut predicting = how.prediction.map(|(prediction, marks)| Predicting {
+    let predicting = how.prediction.map(|(prediction, marks)| Predicting {
         machine: kin.machine(),
         reader: Reader::new(timing),
         blocks: Blocks::new(kin.machine()),
         predictor: Predictor::new(kin, &crate::predict::options_for(mode, prediction), kin.machine().axes.len(), true),
         marks: MarkFinder::new(marks.rules(prediction)),
     });
-    let mut dropped = Dropped;
-    let sink: &mut dyn MotionSink = match predicting.as_mut() {
-        Some(p) => p,
-        None => &mut dropped,
-    };
-    let predicted =
-        Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown, progress }.run(
-            &motion_options,
-            SetUps::default(),
-            (&surveyed.choice, None),
-            true,
-            sink,
-        );
-    let Passed { summary, survey, shape } = predicted.map_err(render)?;
-    let survey = survey.unwrap_or_default();
-    let warnings = progress.suspend(|| warn_all(&file, &summary.warnings, strict));
-    if strict && warnings > 0 {
-        return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
-    }
-    let planes = if how.shapes.planes { crate::job::planes_for(&machine, mode, dialect, &survey) } else { None };
-    if planes.is_some() {
-        job.frame = postpro_motion::part_zero_frame(kin);
-    }
-    motion_options.planes = planes;
-    job.work_offset = setup.work_offset.unwrap_or_else(|| dialect.default_work_offset());
-    let (prediction, annotations) = match (predicting, how.prediction) {
-        (Some(mut p), Some((args, _))) => {
-            let done = p.predictor.finish(&p.blocks);
-            p.take(done);
-            progress.suspend(|| {
-                for note in &p.blocks.notes {
-                    eprintln!("note: {}: prediction: {}", file.location(note.span.start as usize), note.text);
-                }
-            });
-            let marks = p.marks.finish();
-            let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
-            let header = crate::predict::header((&totals, &operations), args, mode, &marks, (&machine, &file));
-            (Some(header), crate::predict::annotations(&marks, &machine))
-        }
-        _ => (None, Vec::new()),
-    };
-
-    // 3. The program.
-    progress.pass(2, "writing the program");
-    let predicted_at = started.elapsed();
-    let predicted_time = prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns));
     let options = Options {
         units: setup.units(&machine),
         program_name: how.program_name.clone(),
@@ -411,54 +697,29 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
         block_numbers: how.block_numbers,
         tcp_orientation: how.tcp_orientation,
         insert_verbatim: how.insert_verbatim,
-        prediction,
-        annotations,
+        prediction: None,
+        annotations: Vec::new(),
     };
-    let facts = postpro_motion::Program {
+    let passes = Passes {
+        how,
+        file: &file,
+        machine: &machine,
+        setup: &setup,
         mode,
-        part: surveyed.info.part_name.clone(),
-        work_offset: job.work_offset,
-        origin: job.frame.describe(),
-        tools: job.tooling.tools.clone(),
-        blocks: Vec::new(),
-        summary: summary.clone(),
+        surveyed: &surveyed,
+        pass: Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown, progress },
+        motion_options: &motion_options,
+        options: &options,
+        started,
+        predicted_at: std::cell::Cell::new(None),
     };
-    let pass = Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown, progress };
+    if passes.speculates() {
+        progress.set_weights(&[1, 10]);
+    }
+    progress.pass(1, if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });
+    let mut outcome = None;
     let write = |out: &mut dyn Write| -> Result<(), Failure> {
-        let mut scratch = ScratchFile::beside(output)?;
-        let mut travel = Vec::new();
-        let mut produce = |sink: &mut dyn MotionSink| -> Result<(), PassError> {
-            let mut checked =
-                Checked { travel: TravelCheck::new(&machine, setup.work_offset_at.as_ref()), error: None, next: sink };
-            let shape = Some(shape.clone());
-            pass.run(&motion_options, survey.set_ups.clone(), (&surveyed.choice, shape), false, &mut checked)?;
-            if let Some(e) = checked.error {
-                return Err(PassError::Motion(e));
-            }
-            travel = checked.travel.finish();
-            Ok(())
-        };
-        let template = (how.template.0.as_str(), how.template.1.as_str());
-        postpro_emit::write_program_with(
-            &facts,
-            &machine,
-            dialect,
-            &options,
-            template,
-            out,
-            &mut scratch.file,
-            &mut produce,
-        )
-        .map_err(|e| match e {
-            WriteError::Emit(e) => Failure::Emit(e),
-            WriteError::Produce(e) => Failure::Pass(e),
-        })?;
-        let count = progress.suspend(|| warn_all(&file, &travel, strict));
-        if strict && count > 0 {
-            return Err(Failure::Refused(format!(
-                "error: {count} warning(s), and --strict makes them errors; {WRITTEN}\n"
-            )));
-        }
+        outcome = Some(passes.predict_and_write(out, predicting)?);
         Ok(())
     };
     let io = |e: std::io::Error| Failure::Emit(EmitError::Io { message: e.to_string() });
@@ -469,30 +730,40 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
     } else {
         crate::emit::write_atomically_with(output, write, io)
     };
-    if let Err(e) = written {
-        let message = match e {
-            Failure::Emit(EmitError::Io { message }) => {
-                format!("error: cannot write {}: {message}\n", output.display())
-            }
-            Failure::Emit(e) => report::render(&e),
-            Failure::Pass(e) => return Err(render(e)),
-            Failure::Refused(message) => message,
-        };
-        return Err(fail(&message, 1));
-    }
+    let outcome = match (written, outcome) {
+        (Ok(()), Some(outcome)) => outcome,
+        (Err(e), _) => {
+            let message = match e {
+                Failure::Emit(EmitError::Io { message }) => {
+                    format!("error: cannot write {}: {message}\n", output.display())
+                }
+                Failure::Emit(e) => report::render(&e),
+                Failure::Pass(e) => return Err(render(e)),
+                Failure::Refused(message) => message,
+            };
+            return Err(fail(&message, 1));
+        }
+        (Ok(()), None) => return Err(fail(&format!("error: the program was not made; {WRITTEN}\n"), 1)),
+    };
+    let predicted_at = passes.predicted_at.get().unwrap_or(surveyed_at);
+    let Outcome { summary, predicted_time, passes } = outcome;
     progress.finish();
     if how.timing {
         let total = started.elapsed();
         let seconds = total.as_secs_f64();
         eprintln!(
-            "timing: {} CL points ({:.1} MB) in {seconds:.3} s: {:.0} k CL points/s, {:.1} MB/s (survey {:.3} s, {} {:.3} s, \
-             writing {:.3} s)",
+            "timing: {} CL points ({:.1} MB) in {seconds:.3} s: {:.0} k CL points/s, {:.1} MB/s; {passes} passes (survey {:.3} \
+             s, {} {:.3} s, writing {:.3} s)",
             summary.cl_points,
             file.len() as f64 / 1e6,
             summary.cl_points as f64 / seconds / 1e3,
             file.len() as f64 / seconds / 1e6,
             surveyed_at.as_secs_f64(),
-            if how.prediction.is_some() { "prediction" } else { "solving" },
+            match (how.prediction.is_some(), passes) {
+                (true, 2) => "prediction and program",
+                (true, _) => "prediction",
+                (false, _) => "solving",
+            },
             (predicted_at - surveyed_at).as_secs_f64(),
             (total - predicted_at).as_secs_f64(),
         );
@@ -537,12 +808,13 @@ struct ScratchFile {
 }
 
 impl ScratchFile {
-    fn beside(output: &Path) -> Result<ScratchFile, Failure> {
+    /// A scratch file named with `suffix`.
+    fn beside(output: &Path, suffix: &str) -> Result<ScratchFile, Failure> {
         let folder = output == Path::new("-") || crate::emit::is_special_file(output);
         let path = if folder {
-            std::env::temp_dir().join(format!("postpro-{}.body", std::process::id()))
+            std::env::temp_dir().join(format!("postpro-{}.{suffix}", std::process::id()))
         } else {
-            crate::emit::beside(output, "body")
+            crate::emit::beside(output, suffix)
         };
         let file = std::fs::OpenOptions::new()
             .read(true)

@@ -137,3 +137,60 @@ fn a_named_pipe_as_the_output_is_written_through_and_stays_a_pipe() {
     assert!(leftovers(&dir).is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Where nothing in the program waits for the end of the prediction, the prediction pass writes
+/// it as it goes and the slowdowns' comments are put in their places afterwards: two passes over
+/// the CL file instead of three. The program, the messages and the exit code are those of the
+/// three passes byte for byte, in every dialect and mode, B-spline runs with their comments
+/// inside included; the cases whose program depends on the whole pass take the third: block
+/// numbers, Heidenhain's numbered lines, rotary brakes, 3+2 set-ups in working planes.
+#[test]
+fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() {
+    let dir = scratch("two-passes", "examples/cl/hypar-5axis.cl");
+    for other in ["bicubic-5axis.cl", "hypar-3plus2.cl", "manta-5axis.cl"] {
+        std::fs::copy(repo().join("examples/cl").join(other), dir.join(other)).expect("copy");
+    }
+    let cases: &[(&str, &str, &[&str], usize)] = &[
+        ("hypar-5axis.cl", "mikron", &["--mode", "g1"], 2),
+        ("hypar-5axis.cl", "mikron", &["--mode", "tcp", "--tcp-orientation", "vectors"], 2),
+        ("hypar-5axis.cl", "mikron", &["--mode", "bspline"], 2),
+        ("bicubic-5axis.cl", "mikron", &["--mode", "inverse-time"], 2),
+        ("bicubic-5axis.cl", "maho600e", &[], 2),
+        ("hypar-5axis.cl", "mikron", &["--dialect", "linuxcnc"], 2),
+        ("manta-5axis.cl", "nutating", &[], 2),
+        ("hypar-5axis.cl", "mikron", &["--block-numbers"], 3),
+        ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain"], 3),
+        ("hypar-5axis.cl", "haas-umc750", &[], 3),
+        ("hypar-3plus2.cl", "mikron", &[], 3),
+    ];
+    // What a run says, but for the name of its output and the times.
+    let said = |o: &Output, out: &str| -> String {
+        text(&o.stderr).lines().filter(|l| !l.starts_with("timing:")).collect::<Vec<_>>().join("\n").replace(out, "OUT")
+    };
+    for &(file, machine, args, passes) in cases {
+        let case = format!("{file} on {machine} {}", args.join(" "));
+        let run = |out: &str, extra: &[&str]| {
+            let mut all = vec!["--machine", machine, file, "-o", out, "--timing"];
+            all.extend_from_slice(args);
+            all.extend_from_slice(extra);
+            postpro(&all, &dir)
+        };
+        let (two, three) = (run("two.nc", &[]), run("three.nc", &["--three-passes"]));
+        assert!(two.status.success() && three.status.success(), "{case}: {}", text(&two.stderr));
+        let timing = text(&two.stderr).lines().find(|l| l.starts_with("timing:")).unwrap_or_default().to_string();
+        assert!(timing.contains(&format!("; {passes} passes")), "{case}: {timing}");
+        assert!(text(&three.stderr).contains("; 3 passes"), "{case}");
+        let program = |name: &str| std::fs::read(dir.join(name)).expect("the program");
+        assert!(program("two.nc") == program("three.nc"), "{case}: the programs differ");
+        assert_eq!(said(&two, "two.nc"), said(&three, "three.nc"), "{case}");
+        if passes == 2 {
+            assert!(text(&program("two.nc")).contains("slowdown #1:"), "{case}: the slowdowns' comments are put in");
+        }
+    }
+    let left: Vec<String> = std::fs::read_dir(&dir)
+        .expect("list")
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(left.is_empty(), "scratch files left: {left:?}");
+}
