@@ -287,16 +287,7 @@ fn write_with<E>(
         (slowdowns, numbering)
     };
     let end = state.call_macro("program_end", &[]).map_err(err)?;
-    let start = if header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty()) {
-        set_nc_lines(&mut header, |number| slowdowns.get(&number).copied());
-        let start = capture(&header)?.state().call_macro("program_start", &[]).map_err(err)?;
-        if start.matches('\n').count() != start_lines {
-            return Err(EmitError::Template { name: name.to_string(), message: LINE_COUNT_DEPENDS.into() }.into());
-        }
-        start
-    } else {
-        start
-    };
+    let start = start_naming_slowdowns(&mut header, start, &slowdowns, (name, &capture))?;
     let mut text = String::with_capacity(start.len() + 64);
     number_lines(dialect, &mut numbering, &start, &mut text);
     text.lines().try_for_each(|l| check_length(l, dialect))?;
@@ -419,16 +410,7 @@ pub fn write_program_deferred<E>(
         insertions.push_back((place.offset, text + "\n"));
     }
     let end = state.call_macro("program_end", &[]).map_err(err)?;
-    let start = if header.prediction.as_ref().is_some_and(|p| !p.worst.is_empty()) {
-        set_nc_lines(&mut header, |number| slowdowns.get(&number).copied());
-        let start = capture(&header)?.state().call_macro("program_start", &[]).map_err(err)?;
-        if start.matches('\n').count() != start_lines {
-            return Err(EmitError::Template { name: name.to_string(), message: LINE_COUNT_DEPENDS.into() }.into());
-        }
-        start
-    } else {
-        start
-    };
+    let start = start_naming_slowdowns(&mut header, start, &slowdowns, (name, &capture))?;
     start.lines().try_for_each(|l| check_length(l, dialect))?;
     out.write_all(start.as_bytes()).map_err(io_error)?;
     let mut body = Inserting { out: &mut *out, at: 0, insertions };
@@ -437,6 +419,31 @@ pub fn write_program_deferred<E>(
     end.lines().try_for_each(|l| check_length(l, dialect))?;
     out.write_all(end.as_bytes()).map_err(io_error)?;
     Ok(true)
+}
+
+/// Renders the template with a header (no blocks) for the macros of its state.
+type Capture<'c, 't> = dyn Fn(&Header) -> Result<minijinja::Captured<'t>, EmitError> + 'c;
+
+/// The header's start with the lines of the worst slowdowns in it (`start`, rendered before they
+/// were known, where it names none), of as many lines as `start`.
+fn start_naming_slowdowns<'t>(
+    header: &mut Header,
+    start: String,
+    slowdowns: &HashMap<usize, (usize, Option<u64>)>,
+    (name, capture): (&str, &Capture<'_, 't>),
+) -> Result<String, EmitError> {
+    if header.prediction.as_ref().is_none_or(|p| p.worst.is_empty()) {
+        return Ok(start);
+    }
+    set_nc_lines(header, |number| slowdowns.get(&number).copied());
+    let named = capture(header)?
+        .state()
+        .call_macro("program_start", &[])
+        .map_err(|e| EmitError::Template { name: name.to_string(), message: describe(&e) })?;
+    if named.matches('\n').count() != start.matches('\n').count() {
+        return Err(EmitError::Template { name: name.to_string(), message: LINE_COUNT_DEPENDS.into() });
+    }
+    Ok(named)
 }
 
 /// Why a header that names the lines of the worst slowdowns cannot be written.
