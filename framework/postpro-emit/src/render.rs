@@ -333,8 +333,8 @@ pub trait DeferredBody {
 ///
 /// Only where inserting a line changes nothing else: a dialect that numbers no blocks, without
 /// `block_numbers`, and a template with the streaming macros. Otherwise nothing is produced or
-/// written, and the result is `false`, as it is when `body` gives no annotations; nothing is
-/// written to `out` then.
+/// written, and the result is `false`, as it is when `body` gives no annotations or one would
+/// have no place; nothing is written to `out` then.
 #[allow(clippy::too_many_arguments)]
 pub fn write_program_deferred<E>(
     facts: &postpro_motion::Program,
@@ -395,6 +395,11 @@ pub fn write_program_deferred<E>(
     notes.sort_by_key(|a| a.step);
     let mut finder = PlaceFinder { steps: notes.iter().map(|a| a.step).collect(), ..PlaceFinder::default() };
     places.replay(&mut finder).map_err(io_error)?;
+    if finder.found.len() < notes.len() {
+        // Every annotation has a place (the formatter notes one at its end): none is dropped, the
+        // program is written by the caller's other way.
+        return Ok(false);
+    }
     let mut insertions = std::collections::VecDeque::with_capacity(notes.len());
     let mut slowdowns = HashMap::new();
     let mut inserted = 0;

@@ -380,7 +380,8 @@ impl Passes<'_> {
                     (true, Some(c)) => {
                         return Ok(Outcome { predicted_time: predicted_time(&c), summary: c.summary, passes: 2 });
                     }
-                    // Working planes: the program is written by a pass of its own.
+                    // Working planes, or comments the body has no place for: the program is
+                    // written by a pass of its own.
                     (false, Some(c)) => c,
                     // Nothing was produced (the template or the dialect does not allow it).
                     _ => match body.predicting {
