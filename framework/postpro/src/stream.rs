@@ -381,8 +381,11 @@ impl Passes<'_> {
                         return Ok(Outcome { predicted_time: predicted_time(&c), summary: c.summary, passes: 2 });
                     }
                     // Working planes, or comments the body has no place for: the program is
-                    // written by a pass of its own.
-                    (false, Some(c)) => c,
+                    // written by a pass of its own, which the bar makes room for.
+                    (false, Some(c)) => {
+                        self.pass.progress.set_weights(&[1, 10, 5]);
+                        c
+                    }
                     // Nothing was produced (the template or the dialect does not allow it).
                     _ => match body.predicting {
                         Some(predicting) => self.predict(Some(predicting))?,
