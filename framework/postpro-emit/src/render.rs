@@ -331,8 +331,9 @@ pub trait DeferredBody {
 /// their places and the end go to `out`: the program [`write_program_with`] writes with them in
 /// `facts` and `options` (whose own are not used).
 ///
-/// Only where inserting a line changes nothing else: a dialect that numbers no blocks, without
-/// `block_numbers`, and a template with the streaming macros. Otherwise nothing is produced or
+/// Only where inserting a line changes nothing else the template writes: without `block_numbers`
+/// (the lines of a dialect that numbers every block are numbered as the body is copied), and a
+/// template with the streaming macros. Otherwise nothing is produced or
 /// written, and the result is `false`, as it is when `body` gives no annotations or one would
 /// have no place; nothing is written to `out` then.
 #[allow(clippy::too_many_arguments)]
@@ -347,7 +348,7 @@ pub fn write_program_deferred<E>(
     body: &mut dyn DeferredBody<Error = E>,
 ) -> Result<bool, WriteError<E>> {
     check_mode(dialect, facts.mode)?;
-    if dialect.numbered_blocks || options.block_numbers {
+    if options.block_numbers {
         return Ok(false);
     }
     let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
@@ -389,7 +390,7 @@ pub fn write_program_deferred<E>(
     let captured = capture(&header)?;
     let state = captured.state();
     let start = state.call_macro("program_start", &[]).map_err(err)?;
-    let start_lines = start.matches('\n').count();
+    let (start_lines, start_blocks) = (start.matches('\n').count(), count_blocks(dialect, &start));
     // The annotations in the order of their steps, each where the formatter would have put it.
     let mut notes: Vec<&Annotation> = options.annotations.iter().collect();
     notes.sort_by_key(|a| a.step);
@@ -402,27 +403,54 @@ pub fn write_program_deferred<E>(
     }
     let mut insertions = std::collections::VecDeque::with_capacity(notes.len());
     let mut slowdowns = HashMap::new();
-    let mut inserted = 0;
+    let (mut inserted, mut inserted_blocks) = (0, 0);
     for (note, place) in notes.iter().zip(&finder.found) {
         let block = comment_block(dialect, &note.text, None, note.slowdown);
         let text = state.call_macro("block", &[Value::from_serialize(&block)]).map_err(err)?;
-        text.lines().try_for_each(|l| check_length(l, dialect))?;
+        // Written as the streamed writer writes it: line by line where the lines are numbered (a
+        // line ending with `~` would leave the next one unnumbered: not put in afterwards).
+        let (written, number) = if dialect.numbered_blocks {
+            if text.lines().any(|l| l.trim_end().ends_with('~')) {
+                return Ok(false);
+            }
+            let number = start_blocks + place.blocks + inserted_blocks;
+            inserted_blocks += text.lines().count() as u64;
+            (text.lines().flat_map(|l| [l, "\n"]).collect::<String>(), Some(number))
+        } else {
+            text.lines().try_for_each(|l| check_length(l, dialect))?;
+            (format!("{text}\n"), block_number(&text))
+        };
         if let Some(slowdown) = note.slowdown {
             let line = start_lines + place.lines as usize + inserted + 1;
-            slowdowns.entry(slowdown).or_insert((line, block_number(&text)));
+            slowdowns.entry(slowdown).or_insert((line, number));
         }
         inserted += text.matches('\n').count() + 1;
-        insertions.push_back((place.offset, text + "\n"));
+        insertions.push_back((place.offset, written));
     }
     let end = state.call_macro("program_end", &[]).map_err(err)?;
     let start = start_naming_slowdowns(&mut header, start, &slowdowns, (name, &capture))?;
-    start.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(start.as_bytes()).map_err(io_error)?;
-    let mut body = Inserting { out: &mut *out, at: 0, insertions };
-    scratch.replay(&mut body).map_err(io_error)?;
-    body.finish().map_err(io_error)?;
-    end.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(end.as_bytes()).map_err(io_error)?;
+    // One numbering through the header, the body and the end, where the dialect numbers blocks.
+    let mut numbering = Numbering::default();
+    let mut text = String::with_capacity(start.len() + 64);
+    number_lines(dialect, &mut numbering, &start, &mut text);
+    text.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(text.as_bytes()).map_err(io_error)?;
+    let mut numbered =
+        NumberedLines { out: &mut *out, numbering: &mut numbering, dialect, line: Vec::new(), error: None };
+    let copied = {
+        let into: &mut dyn Write = if dialect.numbered_blocks { &mut numbered } else { &mut *numbered.out };
+        let mut body = Inserting { out: into, at: 0, insertions };
+        scratch.replay(&mut body).and_then(|()| body.finish())
+    };
+    let copied = copied.and_then(|()| numbered.finish());
+    if let Some(e) = numbered.error.take() {
+        return Err(e.into());
+    }
+    copied.map_err(io_error)?;
+    let mut text = String::with_capacity(end.len() + 16);
+    number_lines(dialect, &mut numbering, &end, &mut text);
+    text.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(text.as_bytes()).map_err(io_error)?;
     Ok(true)
 }
 
@@ -467,20 +495,22 @@ fn environment<'s>(name: &'s str, source: &'s str) -> Result<Environment<'s>, Em
 }
 
 /// Where the annotations of the steps up to `step` stand in a body written before they are
-/// known: before the byte `offset` of the body, after its first `lines` lines.
+/// known: before the byte `offset` of the body, after its first `lines` lines and `blocks`
+/// numbered blocks (where the dialect numbers them).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Place {
     step: u64,
     offset: u64,
     lines: u64,
+    blocks: u64,
 }
 
 impl Place {
-    const SIZE: usize = 24;
+    const SIZE: usize = 32;
 
     fn to_bytes(self) -> [u8; Self::SIZE] {
         let mut bytes = [0; Self::SIZE];
-        for (chunk, value) in bytes.chunks_exact_mut(8).zip([self.step, self.offset, self.lines]) {
+        for (chunk, value) in bytes.chunks_exact_mut(8).zip([self.step, self.offset, self.lines, self.blocks]) {
             chunk.copy_from_slice(&value.to_le_bytes());
         }
         bytes
@@ -492,7 +522,58 @@ impl Place {
             value.copy_from_slice(&bytes[8 * k..8 * k + 8]);
             u64::from_le_bytes(value)
         };
-        Place { step: field(0), offset: field(1), lines: field(2) }
+        Place { step: field(0), offset: field(1), lines: field(2), blocks: field(3) }
+    }
+}
+
+/// Numbers the lines written through it where the dialect numbers blocks, as the streamed writer
+/// does ([`Numbering`]), checking each line's length with its number.
+struct NumberedLines<'a> {
+    out: &'a mut dyn Write,
+    numbering: &'a mut Numbering,
+    dialect: &'a Dialect,
+    /// The line so far.
+    line: Vec<u8>,
+    /// Why it stopped (a line too long).
+    error: Option<EmitError>,
+}
+
+impl NumberedLines<'_> {
+    /// Writes the line held, numbered.
+    fn line(&mut self) -> std::io::Result<()> {
+        let text = String::from_utf8_lossy(&self.line);
+        let mut numbered = String::with_capacity(text.len() + 8);
+        self.numbering.prefix(&text, &mut numbered);
+        numbered.push_str(&text);
+        if let Err(e) = check_length(&numbered, self.dialect) {
+            self.error = Some(e);
+            return Err(std::io::Error::other("a line too long"));
+        }
+        numbered.push('\n');
+        self.line.clear();
+        self.out.write_all(numbered.as_bytes())
+    }
+
+    /// Writes a last line without its line break, if any.
+    fn finish(&mut self) -> std::io::Result<()> {
+        if self.line.is_empty() { Ok(()) } else { self.line() }
+    }
+}
+
+impl Write for NumberedLines<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let mut rest = buf;
+        while let Some(end) = rest.iter().position(|&b| b == b'\n') {
+            self.line.extend_from_slice(&rest[..end]);
+            self.line()?;
+            rest = &rest[end + 1..];
+        }
+        self.line.extend_from_slice(rest);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
     }
 }
 
@@ -804,7 +885,10 @@ impl BlockSink for Streaming<'_, '_, '_> {
             return Ok(());
         }
         *last = Some(step);
-        let place = Place { step: step as u64, offset: self.bytes, lines: self.lines as u64 };
+        // After a line that the next continues, a comment would change the numbers after it.
+        self.unplaceable |= self.numbering.continues;
+        let place =
+            Place { step: step as u64, offset: self.bytes, lines: self.lines as u64, blocks: self.numbering.next };
         places.write_all(&place.to_bytes()).map_err(io_error)
     }
 
@@ -873,11 +957,18 @@ impl Streaming<'_, '_, '_> {
             self.bytes += text.len() as u64 + 1;
             return out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).map(|()| None).map_err(io_error);
         }
+        // Written before the header is known, the lines are numbered as they are copied after it.
+        let later = self.places.is_some();
         let mut first = None;
         for line in text.lines() {
             self.numbered.clear();
             let number = self.numbering.prefix(line, &mut self.numbered);
             first = first.or(number);
+            if later {
+                self.bytes += line.len() as u64 + 1;
+                out.write_all(line.as_bytes()).and_then(|()| out.write_all(b"\n")).map_err(io_error)?;
+                continue;
+            }
             self.numbered.push_str(line);
             check_length(&self.numbered, dialect)?;
             self.numbered.push('\n');
@@ -922,20 +1013,41 @@ mod tests {
     }
 
     #[test]
+    fn numbered_lines_are_numbered_as_the_streamed_writer_numbers_them_whatever_the_chunks() {
+        let dialect = crate::dialect::dialect("heidenhain").unwrap_or_else(|| panic!("heidenhain"));
+        let body = "L X1 FMAX\nCYCL DEF 200 ~\n  Q200=2 ~\n  Q201=-5\nL X2\n";
+        let mut expected = String::new();
+        number_lines(dialect, &mut Numbering { next: 7, continues: false }, body, &mut expected);
+        assert!(expected.starts_with("7 L X1 FMAX\n8 CYCL DEF 200 ~\n  Q200=2 ~\n  Q201=-5\n9 L X2\n"), "{expected}");
+        for chunk in [1, 3, 11, 100] {
+            let (mut out, mut numbering) = (Vec::new(), Numbering { next: 7, continues: false });
+            let mut numbered =
+                NumberedLines { out: &mut out, numbering: &mut numbering, dialect, line: Vec::new(), error: None };
+            for piece in body.as_bytes().chunks(chunk) {
+                numbered.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
+            }
+            numbered.finish().unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(String::from_utf8_lossy(&out), expected, "chunks of {chunk}");
+        }
+    }
+
+    #[test]
     fn each_step_finds_the_first_place_from_the_last_one_found_whose_step_reaches_it() {
         let places = [(3, 10, 1), (5, 20, 2), (9, 30, 3), (usize::MAX, 40, 4)].map(|(step, offset, lines)| Place {
             step: step as u64,
             offset,
             lines,
+            blocks: lines + 100,
         });
         let bytes: Vec<u8> = places.iter().flat_map(|p| p.to_bytes()).collect();
-        for chunk in [1, 7, 24, 100] {
+        for chunk in [1, 7, 32, 100] {
             let mut finder = PlaceFinder { steps: vec![0, 3, 4, 5, 6, 12], ..PlaceFinder::default() };
             for piece in bytes.chunks(chunk) {
                 finder.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
             }
             let offsets: Vec<u64> = finder.found.iter().map(|p| p.offset).collect();
             assert_eq!(offsets, [10, 10, 20, 20, 30, 40], "chunks of {chunk}");
+            assert!(finder.found.iter().all(|p| p.blocks == p.lines + 100), "chunks of {chunk}");
         }
     }
 }
