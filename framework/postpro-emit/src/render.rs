@@ -79,6 +79,21 @@ pub fn render(program: &Program, name: &str, source: &str) -> Result<String, Emi
     template.render(context).map_err(err).map(numbered)
 }
 
+/// The template rendered with `header`, `tools` and no blocks: the state whose macros write a
+/// streamed program.
+fn captured<'t>(
+    template: &minijinja::Template<'t, 't>,
+    header: &Header,
+    tools: &[crate::program::Tool],
+) -> Result<minijinja::Captured<'t>, minijinja::Error> {
+    let context = minijinja::context! {
+        header => Value::from_serialize(header),
+        tools => Value::from_serialize(tools),
+        blocks => Value::from(Vec::<Value>::new()),
+    };
+    template.render_captured(context)
+}
+
 /// True when the template of `captured` defines the macros a streamed program is written with.
 fn streamable(captured: &minijinja::Captured<'_>) -> bool {
     ["program_start", "block", "program_end"].iter().all(|m| captured.state().lookup(m).is_some())
@@ -105,12 +120,19 @@ struct Numbering {
 impl Numbering {
     /// Writes the number `line` starts with (if any) to `out`; returns it.
     fn prefix(&mut self, line: &str, out: &mut String) -> Option<u64> {
-        let number = (!self.continues).then(|| {
-            let n = self.next;
-            self.next += 1;
+        let number = self.count(line);
+        if let Some(n) = number {
             out.push_str(itoa::Buffer::new().format(n));
             out.push(' ');
-            n
+        }
+        number
+    }
+
+    /// The number `line` starts with (if any), counted but not written.
+    fn count(&mut self, line: &str) -> Option<u64> {
+        let number = (!self.continues).then(|| {
+            self.next += 1;
+            self.next - 1
         });
         self.continues = line.trim_end().ends_with('~');
         number
@@ -253,12 +275,7 @@ fn write_with<E>(
     let template = env.get_template(name).map_err(err)?;
     let mut header = header(facts, machine, dialect, options)?;
     let tools = tools(facts, dialect, options.units);
-    let capture = |header: &Header| {
-        // Rendering with no blocks yields the state whose macros are called below.
-        template
-            .render_captured(minijinja::context! { header => Value::from_serialize(header), tools => Value::from_serialize(&tools), blocks => Value::from(Vec::<Value>::new()) })
-            .map_err(err)
-    };
+    let capture = |header: &Header| captured(&template, header, &tools).map_err(err);
     let captured = capture(&header)?;
     if !streamable(&captured) {
         let mut blocks = Vec::new();
@@ -288,16 +305,9 @@ fn write_with<E>(
     };
     let end = state.call_macro("program_end", &[]).map_err(err)?;
     let start = start_naming_slowdowns(&mut header, start, &slowdowns, (name, &capture))?;
-    let mut text = String::with_capacity(start.len() + 64);
-    number_lines(dialect, &mut numbering, &start, &mut text);
-    text.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(text.as_bytes()).map_err(io_error)?;
+    write_numbered(out, dialect, &mut numbering, &start)?;
     scratch.replay(out).map_err(io_error)?;
-    let mut numbering = body_numbering;
-    let mut text = String::with_capacity(end.len() + 16);
-    number_lines(dialect, &mut numbering, &end, &mut text);
-    text.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(text.as_bytes()).map_err(|e| io_error(e).into())
+    write_numbered(out, dialect, &mut { body_numbering }, &end).map_err(WriteError::from)
 }
 
 /// What a program written body first ([`write_program_deferred`]) is completed with once its body
@@ -355,11 +365,7 @@ pub fn write_program_deferred<E>(
     let env = environment(name, source)?;
     let template = env.get_template(name).map_err(err)?;
     let tools = tools(facts, dialect, options.units);
-    let capture = |header: &Header| {
-        template
-            .render_captured(minijinja::context! { header => Value::from_serialize(header), tools => Value::from_serialize(&tools), blocks => Value::from(Vec::<Value>::new()) })
-            .map_err(err)
-    };
+    let capture = |header: &Header| captured(&template, header, &tools).map_err(err);
     // The body without the prediction, which it does not depend on.
     let unannotated = Options { prediction: None, annotations: Vec::new(), ..options.clone() };
     let captured = capture(&header(facts, machine, dialect, &unannotated)?)?;
@@ -431,12 +437,8 @@ pub fn write_program_deferred<E>(
     let start = start_naming_slowdowns(&mut header, start, &slowdowns, (name, &capture))?;
     // One numbering through the header, the body and the end, where the dialect numbers blocks.
     let mut numbering = Numbering::default();
-    let mut text = String::with_capacity(start.len() + 64);
-    number_lines(dialect, &mut numbering, &start, &mut text);
-    text.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(text.as_bytes()).map_err(io_error)?;
-    let mut numbered =
-        NumberedLines { out: &mut *out, numbering: &mut numbering, dialect, line: Vec::new(), error: None };
+    write_numbered(out, dialect, &mut numbering, &start)?;
+    let mut numbered = NumberedLines::new(&mut *out, &mut numbering, dialect);
     let copied = {
         let into: &mut dyn Write = if dialect.numbered_blocks { &mut numbered } else { &mut *numbered.out };
         let mut body = Inserting { out: into, at: 0, insertions };
@@ -447,10 +449,7 @@ pub fn write_program_deferred<E>(
         return Err(e.into());
     }
     copied.map_err(io_error)?;
-    let mut text = String::with_capacity(end.len() + 16);
-    number_lines(dialect, &mut numbering, &end, &mut text);
-    text.lines().try_for_each(|l| check_length(l, dialect))?;
-    out.write_all(text.as_bytes()).map_err(io_error)?;
+    write_numbered(out, dialect, &mut numbering, &end)?;
     Ok(true)
 }
 
@@ -534,24 +533,31 @@ struct NumberedLines<'a> {
     dialect: &'a Dialect,
     /// The line so far.
     line: Vec<u8>,
+    /// The line with its number.
+    numbered: String,
     /// Why it stopped (a line too long).
     error: Option<EmitError>,
 }
 
-impl NumberedLines<'_> {
+impl<'a> NumberedLines<'a> {
+    /// Numbers the lines written through it into `out`, with `numbering`.
+    fn new(out: &'a mut dyn Write, numbering: &'a mut Numbering, dialect: &'a Dialect) -> Self {
+        NumberedLines { out, numbering, dialect, line: Vec::new(), numbered: String::new(), error: None }
+    }
+
     /// Writes the line held, numbered.
     fn line(&mut self) -> std::io::Result<()> {
         let text = String::from_utf8_lossy(&self.line);
-        let mut numbered = String::with_capacity(text.len() + 8);
-        self.numbering.prefix(&text, &mut numbered);
-        numbered.push_str(&text);
-        if let Err(e) = check_length(&numbered, self.dialect) {
+        self.numbered.clear();
+        self.numbering.prefix(&text, &mut self.numbered);
+        self.numbered.push_str(&text);
+        if let Err(e) = check_length(&self.numbered, self.dialect) {
             self.error = Some(e);
             return Err(std::io::Error::other("a line too long"));
         }
-        numbered.push('\n');
+        self.numbered.push('\n');
         self.line.clear();
-        self.out.write_all(numbered.as_bytes())
+        self.out.write_all(self.numbered.as_bytes())
     }
 
     /// Writes a last line without its line break, if any.
@@ -665,6 +671,20 @@ fn count_blocks(dialect: &Dialect, text: &str) -> u64 {
     let mut numbering = Numbering::default();
     number_lines(dialect, &mut numbering, text, &mut String::new());
     numbering.next
+}
+
+/// Writes `text` (the header's start or the end) to `out`, its lines numbered where the dialect
+/// numbers blocks and checked for length.
+fn write_numbered(
+    out: &mut dyn Write,
+    dialect: &Dialect,
+    numbering: &mut Numbering,
+    text: &str,
+) -> Result<(), EmitError> {
+    let mut numbered = String::with_capacity(text.len() + 64);
+    number_lines(dialect, numbering, text, &mut numbered);
+    numbered.lines().try_for_each(|l| check_length(l, dialect))?;
+    out.write_all(numbered.as_bytes()).map_err(io_error)
 }
 
 /// Appends the lines of `text` to `out`, each with its number where the dialect numbers blocks.
@@ -961,14 +981,15 @@ impl Streaming<'_, '_, '_> {
         let later = self.places.is_some();
         let mut first = None;
         for line in text.lines() {
-            self.numbered.clear();
-            let number = self.numbering.prefix(line, &mut self.numbered);
-            first = first.or(number);
             if later {
+                first = first.or(self.numbering.count(line));
                 self.bytes += line.len() as u64 + 1;
                 out.write_all(line.as_bytes()).and_then(|()| out.write_all(b"\n")).map_err(io_error)?;
                 continue;
             }
+            self.numbered.clear();
+            let number = self.numbering.prefix(line, &mut self.numbered);
+            first = first.or(number);
             self.numbered.push_str(line);
             check_length(&self.numbered, dialect)?;
             self.numbered.push('\n');
@@ -1021,8 +1042,7 @@ mod tests {
         assert!(expected.starts_with("7 L X1 FMAX\n8 CYCL DEF 200 ~\n  Q200=2 ~\n  Q201=-5\n9 L X2\n"), "{expected}");
         for chunk in [1, 3, 11, 100] {
             let (mut out, mut numbering) = (Vec::new(), Numbering { next: 7, continues: false });
-            let mut numbered =
-                NumberedLines { out: &mut out, numbering: &mut numbering, dialect, line: Vec::new(), error: None };
+            let mut numbered = NumberedLines::new(&mut out, &mut numbering, dialect);
             for piece in body.as_bytes().chunks(chunk) {
                 numbered.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
             }
