@@ -279,6 +279,16 @@ struct Checked<'a> {
     next: &'a mut dyn MotionSink,
 }
 
+impl Checked<'_> {
+    /// The end of the pass: the travel check's warnings, or the error it stopped at.
+    fn finish(self) -> Result<Vec<postpro_motion::Warning>, PassError> {
+        match self.error {
+            Some(e) => Err(PassError::Motion(e)),
+            None => Ok(self.travel.finish()),
+        }
+    }
+}
+
 impl MotionSink for Checked<'_> {
     fn block(&mut self, block: postpro_motion::Block) {
         if self.error.is_none()
@@ -428,10 +438,20 @@ impl Passes<'_> {
             Some(p) => p,
             None => &mut dropped,
         };
-        let choice = (&self.surveyed.choice, None);
-        let passed =
-            self.pass.run(self.motion_options, SetUps::default(), choice, true, sink).map_err(Failure::Pass)?;
+        let passed = self.prediction_pass(sink)?;
         self.conclude(passed, predicting)
+    }
+
+    /// The stages of the prediction pass, their blocks to `sink`: the policy's choice, the
+    /// linearization recorded, every step standing in a set-up, the steps surveyed.
+    fn prediction_pass(&self, sink: &mut dyn MotionSink) -> Result<Passed, Failure> {
+        let choice = (&self.surveyed.choice, None);
+        self.pass.run(self.motion_options, SetUps::default(), choice, true, sink).map_err(Failure::Pass)
+    }
+
+    /// The travel check before `next`.
+    fn checked<'s>(&'s self, next: &'s mut dyn MotionSink) -> Checked<'s> {
+        Checked { travel: TravelCheck::new(self.machine, self.setup.work_offset_at.as_ref()), error: None, next }
     }
 
     /// The end of the prediction pass: its warnings, the working planes, the prediction's header
@@ -506,15 +526,10 @@ impl Passes<'_> {
         let mut scratch = ScratchFile::beside(how.output, "body")?;
         let mut travel = Vec::new();
         let mut produce = |sink: &mut dyn MotionSink| -> Result<(), PassError> {
-            let work_offset_at = self.setup.work_offset_at.as_ref();
-            let mut checked =
-                Checked { travel: TravelCheck::new(self.machine, work_offset_at), error: None, next: sink };
+            let mut checked = self.checked(sink);
             let shape = Some(shape.clone());
             pass.run(&motion_options, survey.set_ups.clone(), (&self.surveyed.choice, shape), false, &mut checked)?;
-            if let Some(e) = checked.error {
-                return Err(PassError::Motion(e));
-            }
-            travel = checked.travel.finish();
+            travel = checked.finish()?;
             Ok(())
         };
         let template = (how.template.0.as_str(), how.template.1.as_str());
@@ -577,16 +592,9 @@ impl postpro_emit::DeferredBody for Speculation<'_, '_> {
     fn produce(&mut self, sink: &mut dyn MotionSink) -> Result<(), Failure> {
         let passes = self.passes;
         let Some(predicting) = self.predicting.as_mut() else { return Ok(()) };
-        let work_offset_at = passes.setup.work_offset_at.as_ref();
-        let mut checked = Checked { travel: TravelCheck::new(passes.machine, work_offset_at), error: None, next: sink };
-        let mut both = PredictAndWrite { predicting, next: &mut checked };
-        let choice = (&passes.surveyed.choice, None);
-        let passed = passes.pass.run(passes.motion_options, SetUps::default(), choice, true, &mut both);
-        let passed = passed.map_err(Failure::Pass)?;
-        if let Some(e) = checked.error {
-            return Err(Failure::Pass(PassError::Motion(e)));
-        }
-        self.travel = checked.travel.finish();
+        let mut checked = passes.checked(sink);
+        let passed = passes.prediction_pass(&mut PredictAndWrite { predicting, next: &mut checked })?;
+        self.travel = checked.finish().map_err(Failure::Pass)?;
         self.passed = Some(passed);
         Ok(())
     }
