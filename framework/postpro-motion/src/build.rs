@@ -84,12 +84,6 @@ impl Options {
     }
 }
 
-/// True when a feed move of `steps` turns a rotary axis (simultaneous 4- or 5-axis motion): the
-/// program cannot be written in working planes.
-pub fn simultaneous(kin: &dyn Kinematics, steps: &[Step]) -> bool {
-    crate::survey::Survey::of(kin, steps).simultaneous
-}
-
 /// What the job adds to the machine: where the program's zero is, which offset holds it, the
 /// tools.
 #[derive(Clone, Debug, PartialEq)]

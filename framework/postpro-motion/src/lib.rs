@@ -23,7 +23,7 @@ pub use block::{
     Arc, AxisSet, Block, BlockKind, Cycle, CycleMove, FeedWord, Hole, Linear, MachineRetract, Mode, Plane, PlaneKind,
     Position, Rapid, Spline, ToolCall, WorkPlane,
 };
-pub use build::{Arcs, Job, Options, Stage, build, collect, simultaneous, study, unknown_words};
+pub use build::{Arcs, Job, Options, Stage, build, collect, study, unknown_words};
 pub use frame::{WorkFrame, part_zero_frame, work_frame};
 pub use survey::{SetUps, Survey, Surveyor};
 pub use tooling::{Tool, Tooling, ToolingReader, tooling};
