@@ -396,7 +396,7 @@ impl Passes<'_> {
                         self.pass.progress.set_weights(&[1, 10, 5]);
                         c
                     }
-                    // Nothing was produced (the template or the dialect does not allow it).
+                    // Nothing was produced (the options or the template do not allow it).
                     _ => match body.predicting {
                         Some(predicting) => self.predict(Some(predicting))?,
                         None => return Err(Failure::Refused(format!("error: the program was not made; {WRITTEN}\n"))),
