@@ -91,11 +91,5 @@ fn every_file_on_every_machine_in_every_mode_posts_or_says_why() {
     .into_iter()
     .flatten()
     .collect();
-    assert!(
-        failures.is_empty(),
-        "{} of {} runs ended badly:\n{}",
-        failures.len(),
-        cases.len(),
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "{} of {} runs ended badly:\n{}", failures.len(), cases.len(), failures.join("\n"));
 }
