@@ -548,6 +548,47 @@ pub trait BlockSink {
     fn unplaceable(&mut self) {}
 }
 
+impl Block {
+    /// Its block number (`N`), when numbering.
+    pub fn number(&self) -> Option<u32> {
+        match self {
+            Block::CycleHole(hole) => hole.n,
+            Block::PlaneOn(plane) => plane.n,
+            Block::Comment { n, .. }
+            | Block::Insert { n, .. }
+            | Block::Rapid { n, .. }
+            | Block::Linear { n, .. }
+            | Block::FeedMode { n, .. }
+            | Block::ToolChange { n, .. }
+            | Block::WorkOffset { n, .. }
+            | Block::MachineRetract { n, .. }
+            | Block::Arc { n, .. }
+            | Block::CycleOff { n, .. }
+            | Block::LengthOn { n, .. }
+            | Block::SpindleOn { n, .. }
+            | Block::SpindleOff { n, .. }
+            | Block::CoolantOn { n, .. }
+            | Block::CoolantOff { n, .. }
+            | Block::Dwell { n, .. }
+            | Block::Stop { n, .. }
+            | Block::OptionalStop { n, .. }
+            | Block::BsplineOn { n, .. }
+            | Block::ControlPoint { n, .. }
+            | Block::BsplineOff { n, .. }
+            | Block::TcpOn { n, .. }
+            | Block::TcpOff { n, .. }
+            | Block::PlaneOff { n, .. }
+            | Block::Clamp { n, .. } => *n,
+        }
+    }
+}
+
+/// The `N` word of the first block (`--block-numbers`); each next block's is one step more. A
+/// block of several lines numbers them `n`, `n + 1`, … within its step.
+pub(crate) const FIRST_NUMBER: u32 = 10;
+/// See [`FIRST_NUMBER`].
+pub(crate) const NUMBER_STEP: u32 = 10;
+
 impl BlockSink for Vec<Block> {
     fn block(&mut self, block: Block) -> Result<(), EmitError> {
         self.push(block);
@@ -782,7 +823,7 @@ impl<'a> Formatter<'a> {
             options,
             sink,
             failed: None,
-            next_n: 10,
+            next_n: FIRST_NUMBER,
             written: vec![None; machine.axes.len().max(6)],
             last_feed: None,
             feed_mode: "per-minute",
@@ -808,7 +849,7 @@ impl<'a> Formatter<'a> {
     fn n(&mut self) -> Option<u32> {
         self.options.block_numbers.then(|| {
             let n = self.next_n;
-            self.next_n += 10;
+            self.next_n += NUMBER_STEP;
             n
         })
     }

@@ -10,8 +10,8 @@ use postpro_machine::model::Machine;
 use crate::EmitError;
 use crate::dialect::Dialect;
 use crate::program::{
-    Annotation, Block, BlockSink, Formatter, Header, Options, Prediction, Program, Word, check_mode, comment_block,
-    header, tools,
+    Annotation, Block, BlockSink, FIRST_NUMBER, Formatter, Header, NUMBER_STEP, Options, Prediction, Program, Word,
+    check_mode, comment_block, header, tools,
 };
 use postpro_motion::MotionSink;
 
@@ -147,6 +147,15 @@ fn set_nc_lines(header: &mut Header, line_of: impl Fn(usize) -> Option<(usize, O
             (m.nc_line, m.nc_block) = line_of(m.number).map_or((None, None), |(line, block)| (Some(line), block));
         }
     }
+}
+
+/// The number of the `N` word `line` starts with (`N120 G1 …`) and its count of digits, if it
+/// starts with one.
+fn leading_number(line: &[u8]) -> Option<(u64, usize)> {
+    let after = line.strip_prefix(b"N")?;
+    let digits = after.iter().take_while(|b| b.is_ascii_digit()).count();
+    let number = std::str::from_utf8(&after[..digits]).ok()?.parse().ok()?;
+    Some((number, digits))
 }
 
 /// The block number a line starts with: `N120 …` or Heidenhain's `2031 ; …`.
@@ -341,9 +350,10 @@ pub trait DeferredBody {
 /// their places and the end go to `out`: the program [`write_program_with`] writes with them in
 /// `facts` and `options` (whose own are not used).
 ///
-/// Only where inserting a line changes nothing else the template writes: without `block_numbers`
-/// (the lines of a dialect that numbers every block are numbered as the body is copied), and a
-/// template with the streaming macros. Otherwise nothing is produced or
+/// Only where inserting a line changes nothing else the template writes but numbers: the lines of
+/// a dialect that numbers every block are numbered as the body is copied, and with
+/// `block_numbers` the `N` words after a comment put in are moved up by a step each (not both at
+/// once); and a template with the streaming macros. Otherwise nothing is produced or
 /// written, and the result is `false`, as it is when `body` gives no annotations or one would
 /// have no place; nothing is written to `out` then.
 #[allow(clippy::too_many_arguments)]
@@ -358,7 +368,7 @@ pub fn write_program_deferred<E>(
     body: &mut dyn DeferredBody<Error = E>,
 ) -> Result<bool, WriteError<E>> {
     check_mode(dialect, facts.mode)?;
-    if options.block_numbers {
+    if options.block_numbers && dialect.numbered_blocks {
         return Ok(false);
     }
     let err = |e: minijinja::Error| EmitError::Template { name: name.to_string(), message: describe(&e) };
@@ -377,6 +387,7 @@ pub fn write_program_deferred<E>(
         let state = captured.state();
         let mut streaming =
             Streaming::new((state, name, dialect), &mut *scratch, Some(places), (0, Numbering::default()));
+        streaming.numbers_later = options.block_numbers;
         let mut formatter = Formatter::new(machine, dialect, &unannotated, &mut streaming);
         body.produce(&mut formatter).map_err(WriteError::Produce)?;
         formatter.finish()?;
@@ -410,8 +421,18 @@ pub fn write_program_deferred<E>(
     let mut insertions = std::collections::VecDeque::with_capacity(notes.len());
     let mut slowdowns = HashMap::new();
     let (mut inserted, mut inserted_blocks) = (0, 0);
-    for (note, place) in notes.iter().zip(&finder.found) {
-        let block = comment_block(dialect, &note.text, None, note.slowdown);
+    for (k, (note, place)) in notes.iter().zip(&finder.found).enumerate() {
+        // With `N` words: the number the formatter gives the comment, after those put in before.
+        let n = if options.block_numbers {
+            let step = u64::from(NUMBER_STEP);
+            match u32::try_from(u64::from(FIRST_NUMBER) + step * (place.blocks + k as u64)) {
+                Ok(n) => Some(n),
+                Err(_) => return Ok(false),
+            }
+        } else {
+            None
+        };
+        let block = comment_block(dialect, &note.text, n, note.slowdown);
         let text = state.call_macro("block", &[Value::from_serialize(&block)]).map_err(err)?;
         // Written as the streamed writer writes it: line by line where the lines are numbered (a
         // line ending with `~` would leave the next one unnumbered: not put in afterwards).
@@ -441,8 +462,13 @@ pub fn write_program_deferred<E>(
     let mut numbered = NumberedLines::new(&mut *out, &mut numbering, dialect);
     let copied = {
         let into: &mut dyn Write = if dialect.numbered_blocks { &mut numbered } else { &mut *numbered.out };
-        let mut body = Inserting { out: into, at: 0, insertions };
-        scratch.replay(&mut body).and_then(|()| body.finish())
+        let renumber = options.block_numbers.then(|| Renumber { dialect, shift: 0, line: Vec::new(), error: None });
+        let mut body = Inserting { out: into, at: 0, insertions, renumber };
+        let copied = scratch.replay(&mut body).and_then(|()| body.finish());
+        if let Some(e) = body.renumber.and_then(|r| r.error) {
+            return Err(e.into());
+        }
+        copied
     };
     let copied = copied.and_then(|()| numbered.finish());
     if let Some(e) = numbered.error.take() {
@@ -619,12 +645,26 @@ impl Write for PlaceFinder {
     }
 }
 
-/// Copies a body to `out` with texts inserted before given byte offsets (ascending).
+/// Copies a body to `out` with texts inserted before given byte offsets (ascending), the offsets
+/// of line starts.
 struct Inserting<'a> {
     out: &'a mut dyn Write,
-    /// The offset of the next byte of the body.
+    /// The offset of the next byte of the body (with `renumber`: of the line it holds).
     at: u64,
     insertions: std::collections::VecDeque<(u64, String)>,
+    /// With `N` words: each text put in is a block of its own, numbered, and the body's lines
+    /// after it are numbered a step more.
+    renumber: Option<Renumber<'a>>,
+}
+
+/// The `N` words of a body's lines moved up by `shift`.
+struct Renumber<'a> {
+    dialect: &'a Dialect,
+    shift: u64,
+    /// The line so far.
+    line: Vec<u8>,
+    /// Why it stopped (a line too long).
+    error: Option<EmitError>,
 }
 
 impl Inserting<'_> {
@@ -635,13 +675,45 @@ impl Inserting<'_> {
         {
             if let Some((_, text)) = self.insertions.pop_front() {
                 self.out.write_all(text.as_bytes())?;
+                if let Some(r) = self.renumber.as_mut() {
+                    r.shift += u64::from(NUMBER_STEP);
+                }
             }
         }
         Ok(())
     }
 
+    /// Writes `line` of the body (its line break included), its `N` word moved up, after the
+    /// insertions before it.
+    fn renumbered_line(&mut self, line: &[u8]) -> std::io::Result<()> {
+        self.insert_upto(self.at)?;
+        self.at += line.len() as u64;
+        let Some(r) = self.renumber.as_mut() else { return self.out.write_all(line) };
+        let Some((number, digits)) = leading_number(line).filter(|_| r.shift > 0) else {
+            return self.out.write_all(line);
+        };
+        let mut text = itoa::Buffer::new();
+        let moved = text.format(number + r.shift);
+        let rest = &line[1 + digits..];
+        let content = rest.strip_suffix(b"\n").unwrap_or(rest);
+        if 1 + moved.len() + content.len() > r.dialect.max_line {
+            let whole = format!("N{moved}{}", String::from_utf8_lossy(content));
+            r.error = check_length(&whole, r.dialect).err();
+            return Err(std::io::Error::other("a line too long"));
+        }
+        self.out.write_all(b"N")?;
+        self.out.write_all(moved.as_bytes())?;
+        self.out.write_all(rest)
+    }
+
     /// Writes the insertions at the body's end (none is ever dropped).
     fn finish(&mut self) -> std::io::Result<()> {
+        if let Some(r) = self.renumber.as_mut()
+            && !r.line.is_empty()
+        {
+            let held = std::mem::take(&mut r.line);
+            self.renumbered_line(&held)?;
+        }
         self.insert_upto(u64::MAX)
     }
 }
@@ -649,6 +721,25 @@ impl Inserting<'_> {
 impl Write for Inserting<'_> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
         let mut rest = buf;
+        if let Some(r) = self.renumber.as_mut() {
+            // Line by line: a line split between two writes is held until its end comes.
+            let mut held = std::mem::take(&mut r.line);
+            while let Some(end) = rest.iter().position(|&b| b == b'\n') {
+                if held.is_empty() {
+                    self.renumbered_line(&rest[..=end])?;
+                } else {
+                    held.extend_from_slice(&rest[..=end]);
+                    self.renumbered_line(&held)?;
+                    held.clear();
+                }
+                rest = &rest[end + 1..];
+            }
+            held.extend_from_slice(rest);
+            if let Some(r) = self.renumber.as_mut() {
+                r.line = held;
+            }
+            return Ok(buf.len());
+        }
         while !rest.is_empty() {
             self.insert_upto(self.at)?;
             let next = self.insertions.front().map_or(u64::MAX, |(offset, _)| *offset);
@@ -735,6 +826,11 @@ struct Streaming<'s, 'env, 'o> {
     places: Option<(std::io::BufWriter<&'o mut dyn Write>, Option<usize>)>,
     /// Some annotation would not stand where the places say.
     unplaceable: bool,
+    /// The blocks carry `N` words (`block_numbers`) and the annotations' comments come later:
+    /// every line that starts with one must be a block's own (see [`Inserting`]).
+    numbers_later: bool,
+    /// The blocks with an `N` word written so far.
+    blocks_numbered: u64,
     /// The shape of the block at hand ([`shape_key`]).
     key: String,
     line: String,
@@ -767,6 +863,8 @@ impl<'s, 'env, 'o> Streaming<'s, 'env, 'o> {
             bytes: 0,
             places: places.map(|p| (std::io::BufWriter::with_capacity(1 << 16, p), None)),
             unplaceable: false,
+            numbers_later: false,
+            blocks_numbered: 0,
             key: String::with_capacity(24),
             line: String::with_capacity(128),
             numbered: String::with_capacity(128),
@@ -907,8 +1005,8 @@ impl BlockSink for Streaming<'_, '_, '_> {
         *last = Some(step);
         // After a line that the next continues, a comment would change the numbers after it.
         self.unplaceable |= self.numbering.continues;
-        let place =
-            Place { step: step as u64, offset: self.bytes, lines: self.lines as u64, blocks: self.numbering.next };
+        let blocks = if self.numbers_later { self.blocks_numbered } else { self.numbering.next };
+        let place = Place { step: step as u64, offset: self.bytes, lines: self.lines as u64, blocks };
         places.write_all(&place.to_bytes()).map_err(io_error)
     }
 
@@ -920,10 +1018,11 @@ impl BlockSink for Streaming<'_, '_, '_> {
 impl Streaming<'_, '_, '_> {
     /// Writes `block` through the skeleton of its shape (`key` the scratch for it).
     fn motion_block(&mut self, block: Block, key: &mut String) -> Result<(), EmitError> {
+        let n = block.number();
         if !shape_key(&block, key) {
             let text = self.full(&block)?;
             let line = self.lines + 1;
-            let number = self.write(&text)?;
+            let number = self.write(&text, n)?;
             if let Block::Comment { slowdown: Some(slowdown), .. } = block {
                 let number = number.or_else(|| block_number(&text));
                 self.slowdowns.entry(slowdown).or_insert((line, number));
@@ -937,7 +1036,7 @@ impl Streaming<'_, '_, '_> {
             Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line)
         );
         if filled {
-            let result = self.write(&line);
+            let result = self.write(&line, n);
             self.line = line;
             return result.map(drop);
         }
@@ -952,11 +1051,11 @@ impl Streaming<'_, '_, '_> {
                 let agrees = Self::fill(pieces, &block, &mut line) && line == full;
                 let next = if agrees { Shape::Skeleton(pieces.clone(), checked + 1) } else { Shape::Full };
                 self.shapes.insert(key.clone(), next);
-                self.write(&full)
+                self.write(&full, n)
             }
             _ => {
                 let text = self.full(&block)?;
-                self.write(&text)
+                self.write(&text, n)
             }
         };
         self.line = line;
@@ -965,15 +1064,25 @@ impl Streaming<'_, '_, '_> {
 }
 
 impl Streaming<'_, '_, '_> {
-    /// Writes `text` and a line break (its blocks numbered where the dialect numbers them),
-    /// counting the lines; returns the number of its first block, if numbered.
-    fn write(&mut self, text: &str) -> Result<Option<u64>, EmitError> {
+    /// Writes `text`, a block numbered `n` (`N` words), and a line break (its lines numbered where
+    /// the dialect numbers them), counting the lines; returns the number of its first block, if
+    /// numbered.
+    fn write(&mut self, text: &str, n: Option<u32>) -> Result<Option<u64>, EmitError> {
         self.lines += text.matches('\n').count() + 1;
         let (out, dialect) = (&mut self.out, self.dialect);
         if !dialect.numbered_blocks {
             for line in text.lines() {
                 check_length(line, dialect)?;
+                // A line that starts with an `N` word not of its block (a verbatim insert's) would
+                // be numbered anew as the body is copied.
+                if self.numbers_later
+                    && let Some((number, _)) = leading_number(line.as_bytes())
+                    && n.is_none_or(|n| number < u64::from(n) || number >= u64::from(n) + u64::from(NUMBER_STEP))
+                {
+                    self.unplaceable = true;
+                }
             }
+            self.blocks_numbered += u64::from(n.is_some());
             self.bytes += text.len() as u64 + 1;
             return out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).map(|()| None).map_err(io_error);
         }
@@ -1020,7 +1129,7 @@ mod tests {
         for chunk in [1, 5, 6, 7, 64] {
             let mut out = Vec::new();
             let queue = insertions.iter().map(|&(at, t)| (at, t.to_string())).collect();
-            let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue };
+            let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue, renumber: None };
             for piece in body.chunks(chunk) {
                 inserting.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
             }
@@ -1031,6 +1140,43 @@ mod tests {
                 "chunks of {chunk}"
             );
         }
+    }
+
+    #[test]
+    fn with_n_words_each_comment_put_in_moves_the_numbers_after_it_up_a_step() {
+        // The body as the formatter numbered it without the comments; a tool change of two lines
+        // (`N30`, `N31`), a line without a number, and comments numbered where they go.
+        let dialect = crate::dialect::dialect("fanuc").unwrap_or_else(|| panic!("fanuc"));
+        let body = "N10 G1 X1\nN20 G1 X2\nN30 T2 M6\nN31 G43 H2\n%\nN40 G1 X3";
+        let insertions = [(10, "N20 (a)\n"), (20, "N40 (b)\n"), (20, "N50 (c)\n"), (u64::MAX, "N90 (d)\n")];
+        for chunk in [1, 4, 10, 100] {
+            let mut out = Vec::new();
+            let queue = insertions.iter().map(|&(at, t)| (at, t.to_string())).collect();
+            let renumber = Some(Renumber { dialect, shift: 0, line: Vec::new(), error: None });
+            let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue, renumber };
+            for piece in body.as_bytes().chunks(chunk) {
+                inserting.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
+            }
+            inserting.finish().unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(
+                String::from_utf8_lossy(&out),
+                "N10 G1 X1\nN20 (a)\nN30 G1 X2\nN40 (b)\nN50 (c)\nN60 T2 M6\nN61 G43 H2\n%\nN70 G1 X3N90 (d)\n",
+                "chunks of {chunk}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_number_moved_past_the_dialects_line_length_is_an_error() {
+        let mut dialect = crate::dialect::dialect("fanuc").unwrap_or_else(|| panic!("fanuc")).clone();
+        dialect.max_line = 10;
+        let mut out = Vec::new();
+        let queue = [(0, "N10 (a)\n".to_string())].into();
+        let renumber = Some(Renumber { dialect: &dialect, shift: 0, line: Vec::new(), error: None });
+        let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue, renumber };
+        assert!(inserting.write_all(b"N90 G1 X12\n").is_err());
+        let error = inserting.renumber.and_then(|r| r.error).map(|e| e.to_string()).unwrap_or_default();
+        assert!(error.contains("N100 G1 X12"), "{error}");
     }
 
     #[test]

@@ -410,9 +410,9 @@ impl Passes<'_> {
 
     /// True when the program the writing pass would write is the one the prediction pass makes as
     /// it goes, but for the slowdowns' comments, which can be put in their places afterwards: a
-    /// prediction to write, the dialect's own template, no `N` words (a comment put in would
-    /// renumber the blocks after it; the lines a dialect numbers are numbered as they are copied),
-    /// no rotary brakes (whether they lock depends on the steps
+    /// prediction to write, the dialect's own template, not both `N` words and a dialect that
+    /// numbers its lines (either is numbered anew as the body is copied, not both at once), no
+    /// rotary brakes (whether they lock depends on the steps
     /// that follow), and no working planes (the frame of the blocks of a 3+2 set-up in one
     /// depends on them), as where the tool turns while cutting. Whether the 3+2 set-ups stand in
     /// working planes is known only at the end of the pass: if they do after all, the program is
@@ -426,7 +426,7 @@ impl Passes<'_> {
         how.prediction.is_some()
             && !how.three_passes
             && builtin
-            && !how.block_numbers
+            && !(how.block_numbers && how.dialect.numbered_blocks)
             && self.machine.axes.iter().all(|a| a.clamp.is_none())
             && no_planes
     }

@@ -142,14 +142,20 @@ fn a_named_pipe_as_the_output_is_written_through_and_stays_a_pipe() {
 /// it as it goes and the slowdowns' comments are put in their places afterwards: two passes over
 /// the CL file instead of three. The program, the messages and the exit code are those of the
 /// three passes byte for byte, in every dialect and mode, B-spline runs with their comments
-/// inside and Heidenhain's numbered lines included; the cases whose program depends on the whole
-/// pass take the third: `N` words, rotary brakes, 3+2 set-ups in working planes.
+/// inside, Heidenhain's numbered lines and `N` words (moved up after each comment; a verbatim
+/// insert's own `N` word after the block's stays) included; the cases whose program depends on
+/// the whole pass take the third: rotary brakes, 3+2 set-ups in working planes, `N` words on
+/// Heidenhain's numbered lines.
 #[test]
 fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() {
     let dir = scratch("two-passes", "examples/cl/hypar-5axis.cl");
     for other in ["bicubic-5axis.cl", "hypar-3plus2.cl", "manta-5axis.cl"] {
         std::fs::copy(repo().join("examples/cl").join(other), dir.join(other)).expect("copy");
     }
+    let hypar = std::fs::read_to_string(dir.join("hypar-5axis.cl")).expect("the example");
+    let insert = hypar.replacen("FEDRAT/MMPM,2000.0000\n", "FEDRAT/MMPM,2000.0000\nINSERT/N5 M1\n", 1);
+    assert_ne!(insert, hypar, "the insert goes in");
+    std::fs::write(dir.join("insert.cl"), insert).expect("write");
     let cases: &[(&str, &str, &[&str], usize)] = &[
         ("hypar-5axis.cl", "mikron", &["--mode", "g1"], 2),
         ("hypar-5axis.cl", "mikron", &["--mode", "tcp", "--tcp-orientation", "vectors"], 2),
@@ -158,7 +164,12 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
         ("bicubic-5axis.cl", "maho600e", &[], 2),
         ("hypar-5axis.cl", "mikron", &["--dialect", "linuxcnc"], 2),
         ("manta-5axis.cl", "nutating", &[], 2),
-        ("hypar-5axis.cl", "mikron", &["--block-numbers"], 3),
+        ("hypar-5axis.cl", "mikron", &["--block-numbers"], 2),
+        ("hypar-5axis.cl", "mikron", &["--block-numbers", "--mode", "bspline"], 2),
+        ("bicubic-5axis.cl", "maho600e", &["--block-numbers"], 2),
+        ("insert.cl", "mikron", &["--block-numbers", "--insert", "verbatim"], 2),
+        ("insert.cl", "mikron", &["--block-numbers"], 2),
+        ("hypar-5axis.cl", "mikron", &["--block-numbers", "--dialect", "heidenhain"], 3),
         ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain"], 2),
         ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain", "--mode", "tcp", "--tcp-orientation", "vectors"], 2),
         ("hypar-5axis.cl", "haas-umc750", &[], 3),
