@@ -219,6 +219,7 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
 
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
     let request = crate::stream::Request {
+        purpose: crate::stream::Purpose::Program,
         file,
         chosen: &chosen,
         ikt: &args.ikt,

@@ -141,7 +141,7 @@ pub(crate) struct PredictArgs {
     #[arg(long, value_name = "MS", allow_negative_numbers = true)]
     period: Option<f64>,
     /// Print the time the prediction took and its throughput (blocks and samples per second)
-    /// to standard error.
+    /// to standard error: streamed, the prediction pass's (reading and solving included).
     #[arg(long)]
     timing: bool,
 }
@@ -288,6 +288,9 @@ fn planner_name(p: Planner) -> &'static str {
 }
 
 /// `postpro predict`.
+/// What an error of `postpro predict` says was not done.
+pub(crate) const PREDICTED: &str = "nothing predicted";
+
 pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     let chosen = match args.machine.choose() {
         Ok(c) => c,
@@ -299,18 +302,28 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         return fail(&format!("error: --period must be a positive number of ms, found {ms}\n"), 2);
     }
     let dialect = crate::job::machine_dialect(&chosen.machine);
-    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), "nothing predicted") {
+    let shapes = crate::job::Shapes {
+        linear_arcs: args.arcs == crate::emit::ArcsArg::Linear,
+        expand_cycles: args.cycles == crate::emit::CyclesArg::Expand,
+        planes: args.plane_mode == crate::emit::PlaneModeArg::Cycle,
+    };
+    // The figures alone stream; every block's results or samples are held for the exports.
+    let whole = args.blocks
+        || args.csv.is_some()
+        || args.json.is_some()
+        || args.plot.is_some()
+        || args.report.is_some()
+        || args.period.is_some();
+    if !whole {
+        return streamed(args, &chosen, dialect, shapes);
+    }
+    let job = match prepare(&args.file, &chosen, &args.ikt, &args.setup, (args.mode, dialect), PREDICTED) {
         Ok(job) => job,
         Err(code) => return code,
     };
     let samples = args.csv.is_some() || args.json.is_some() || args.plot.is_some() || args.report.is_some();
     let mode = job.mode;
     let planner = effective(args.prediction.planner(), mode);
-    let shapes = crate::job::Shapes {
-        linear_arcs: args.arcs == crate::emit::ArcsArg::Linear,
-        expand_cycles: args.cycles == crate::emit::CyclesArg::Expand,
-        planes: args.plane_mode == crate::emit::PlaneModeArg::Cycle,
-    };
     let program = match job.motion(crate::job::machine_dialect(&job.machine), shapes) {
         Ok(program) => program,
         Err(code) => return code,
@@ -319,16 +332,7 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     let prediction =
         run_with(&job, &program, planner, args.prediction.threshold(), samples, args.period.map(|ms| ms / 1000.0));
     if args.timing {
-        let seconds = started.elapsed().as_secs_f64();
-        let (blocks, steps) = (prediction.blocks.len() as f64, prediction.totals().samples as f64);
-        eprintln!(
-            "predicted {blocks} blocks, {steps} samples in {seconds:.3} s: {:.2} M blocks/s, {:.2} M samples/s \
-             ({:.0} ns per block, {:.0} ns per sample)",
-            blocks / seconds / 1e6,
-            steps / seconds / 1e6,
-            seconds / blocks.max(1.0) * 1e9,
-            seconds / steps.max(1.0) * 1e9
-        );
+        print_timing(prediction.blocks.len(), prediction.totals().samples, started.elapsed().as_secs_f64());
     }
     let machine = &job.machine;
     let marks = prediction.marks(&args.marks.rules(&args.prediction));
@@ -361,7 +365,103 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     if let Err(message) = write_all(&exports) {
         return fail(&message, 1);
     }
-    report::print_stdout(&table(&run))
+    let figures = Figures {
+        name: job.source.name(),
+        machine,
+        planner,
+        mode,
+        blocks: prediction.blocks.len(),
+        prediction: &prediction,
+        marks: &marks,
+        mark_lines: marks.iter().map(|m| line(&job, prediction.blocks[m.first].step)).collect(),
+        note_lines: prediction.notes.iter().map(|n| line(&job, n.step)).collect(),
+        args,
+        every_block: Some(&job),
+    };
+    report::print_stdout(&table(&figures))
+}
+
+/// `postpro predict` streamed (`stream::predict`): the figures without the exports.
+fn streamed(
+    args: &PredictArgs,
+    chosen: &crate::solve::Chosen,
+    dialect: &postpro_emit::Dialect,
+    shapes: crate::job::Shapes,
+) -> ExitCode {
+    let unused = (String::new(), String::new());
+    let request = crate::stream::Request {
+        purpose: crate::stream::Purpose::Prediction,
+        file: &args.file,
+        chosen,
+        ikt: &args.ikt,
+        setup: &args.setup,
+        mode: args.mode,
+        dialect,
+        template: &unused,
+        output: Path::new("-"),
+        program_name: String::new(),
+        block_numbers: false,
+        shapes,
+        tcp_orientation: postpro_emit::TcpOrientation::default(),
+        insert_verbatim: false,
+        prediction: Some((&args.prediction, &args.marks)),
+        timing: false,
+        three_passes: false,
+    };
+    let s = match crate::stream::predict(&request) {
+        Ok(streamed) => streamed,
+        Err(code) => return code,
+    };
+    if args.timing {
+        print_timing(s.blocks, s.prediction.totals().samples, s.seconds);
+    }
+    let figures = Figures {
+        name: &s.name,
+        machine: &s.machine,
+        planner: effective(args.prediction.planner(), s.mode),
+        mode: s.mode,
+        blocks: s.blocks,
+        prediction: &s.prediction,
+        marks: &s.marks,
+        mark_lines: s.mark_lines.clone(),
+        note_lines: s.note_lines.clone(),
+        args,
+        every_block: None,
+    };
+    report::print_stdout(&table(&figures))
+}
+
+/// `--timing`: the prediction's throughput, on standard error.
+fn print_timing(blocks: usize, samples: u64, seconds: f64) {
+    let (blocks, steps) = (blocks as f64, samples as f64);
+    eprintln!(
+        "predicted {blocks} blocks, {steps} samples in {seconds:.3} s: {:.2} M blocks/s, {:.2} M samples/s \
+         ({:.0} ns per block, {:.0} ns per sample)",
+        blocks / seconds / 1e6,
+        steps / seconds / 1e6,
+        seconds / blocks.max(1.0) * 1e9,
+        seconds / steps.max(1.0) * 1e9
+    );
+}
+
+/// What the table shows of a prediction, whole or streamed.
+struct Figures<'a> {
+    /// The CL file's name.
+    name: &'a str,
+    machine: &'a Machine,
+    planner: Planner,
+    mode: Mode,
+    /// The blocks predicted.
+    blocks: usize,
+    /// Its totals, operations and notes (and, whole, every block's results).
+    prediction: &'a Prediction,
+    marks: &'a [Mark],
+    /// The CL line of each mark and of each note.
+    mark_lines: Vec<usize>,
+    note_lines: Vec<usize>,
+    args: &'a PredictArgs,
+    /// The job whose blocks `--blocks` lists (the whole-path prediction).
+    every_block: Option<&'a Job>,
 }
 
 /// One prediction with what the outputs need to describe it.
@@ -450,19 +550,17 @@ fn cause_rows(out: &mut String, causes: &[Cause], machine: &Machine) {
 }
 
 /// The program's figures as a terminal table.
-fn table(run: &Run<'_>) -> String {
-    let Run { prediction, marks, machine, job, args, planner } = *run;
+fn table(figures: &Figures<'_>) -> String {
+    let Figures { name, machine, planner, mode, blocks, prediction, marks, args, .. } = *figures;
     let totals = prediction.totals();
     let mut out = String::new();
     let threshold = args.prediction.threshold;
     let _ = writeln!(
         out,
-        "{} on {} ({} planner, {} mode, {} blocks)",
-        job.source.name(),
+        "{name} on {} ({} planner, {} mode, {blocks} blocks)",
         machine.name,
         planner_name(planner),
-        job.mode.name(),
-        prediction.blocks.len()
+        mode.name(),
     );
     let _ = writeln!(out, "predicted cycle time   {:>10.2} s", totals.cycle_time);
     let _ = writeln!(out, "at the programmed feed {:>10.2} s", totals.programmed_time);
@@ -492,10 +590,10 @@ fn table(run: &Run<'_>) -> String {
             );
         }
     }
-    for note in &prediction.notes {
-        let _ = writeln!(out, "note: line {}: {}", line(job, note.step), note.text);
+    for (note, line) in prediction.notes.iter().zip(&figures.note_lines) {
+        let _ = writeln!(out, "note: line {line}: {}", note.text);
     }
-    if args.blocks {
+    if let (true, Some(job)) = (args.blocks, figures.every_block) {
         let _ = writeln!(
             out,
             "\n  block    line  kind            length mm  F mm/min    min mm/min  mean mm/min   time s   lost s  limit"
@@ -530,11 +628,13 @@ fn table(run: &Run<'_>) -> String {
         );
         let _ = writeln!(out, "   mark     line  blocks  lowest   lost s  cause                     operation");
         for m in worst {
+            let at = marks.iter().position(|x| std::ptr::eq(x, m));
+            let line = at.and_then(|i| figures.mark_lines.get(i)).copied().unwrap_or_default();
             let _ = writeln!(
                 out,
                 "{:>7} {:>8} {:>7} {:>6}% {:>8.2}  {:<24}  {}",
                 format!("#{}", m.number),
-                line(job, prediction.blocks[m.first].step),
+                line,
                 m.blocks,
                 (m.ratio * 100.0).floor(),
                 m.lost,

@@ -16,6 +16,9 @@
 //! afterwards ([`Speculation`], `postpro_emit::write_program_deferred`): the same program, without
 //! the third pass.
 //!
+//! `postpro predict` runs the first two passes alone ([`predict`]), and a third where the 3+2
+//! set-ups stand in working planes, whose frame changes the blocks.
+//!
 //! Every pass runs the same stages on the same items, so the step and block numbers the
 //! prediction's marks name are those of the program written. An error in any pass leaves
 //! nothing written (the output is renamed into place at the very end).
@@ -44,8 +47,19 @@ use crate::report;
 use crate::setup::SetupArgs;
 use crate::solve::{Chosen, IktArgs};
 
-/// What the main job is asked for.
+/// What the passes are for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Purpose {
+    /// The main job: the program.
+    Program,
+    /// `postpro predict`: the prediction alone (the fields about the program are not used).
+    Prediction,
+}
+
+/// What the main job (or `postpro predict`, streamed) is asked for.
 pub(crate) struct Request<'a> {
+    /// The program, or the prediction alone.
+    pub(crate) purpose: Purpose,
     /// The CL file.
     pub(crate) file: &'a Path,
     /// The machine.
@@ -78,6 +92,21 @@ pub(crate) struct Request<'a> {
     pub(crate) timing: bool,
     /// Write the program in a pass of its own even where the prediction pass could (to compare).
     pub(crate) three_passes: bool,
+}
+
+impl Request<'_> {
+    /// True for the main job, which writes a program.
+    fn writes(&self) -> bool {
+        self.purpose == Purpose::Program
+    }
+
+    /// What an error says was not done.
+    fn nothing(&self) -> &'static str {
+        match self.purpose {
+            Purpose::Program => WRITTEN,
+            Purpose::Prediction => crate::predict::PREDICTED,
+        }
+    }
 }
 
 /// What the first pass found.
@@ -327,9 +356,12 @@ struct Passes<'a> {
     motion_options: &'a postpro_motion::Options,
     /// How the program is written, its prediction and annotations aside.
     options: &'a Options,
-    /// When the survey started, and when the prediction pass ended (since then).
+    /// When the survey started, when it ended and when the prediction pass ended (since then).
     started: std::time::Instant,
+    surveyed_at: std::time::Duration,
     predicted_at: std::cell::Cell<Option<std::time::Duration>>,
+    /// A pass's error, reported.
+    render: &'a dyn Fn(PassError) -> ExitCode,
 }
 
 /// What the prediction pass found, for the program.
@@ -619,6 +651,132 @@ impl postpro_emit::DeferredBody for Speculation<'_, '_> {
     }
 }
 
+/// A prediction made as the file streams by ([`predict`]): what `postpro predict` prints of it.
+pub(crate) struct Streamed {
+    /// The machine, as solved.
+    pub(crate) machine: Machine,
+    /// The output mode predicted for.
+    pub(crate) mode: postpro_motion::Mode,
+    /// The blocks predicted.
+    pub(crate) blocks: usize,
+    /// The totals, the operations and the prediction's notes (no block is held).
+    pub(crate) prediction: postpro_predict::Prediction,
+    /// The slowdowns marked.
+    pub(crate) marks: Vec<postpro_predict::Mark>,
+    /// The CL file's name.
+    pub(crate) name: String,
+    /// The CL line of each mark, and of each of the prediction's notes.
+    pub(crate) mark_lines: Vec<usize>,
+    pub(crate) note_lines: Vec<usize>,
+    /// How long the prediction pass took (s).
+    pub(crate) seconds: f64,
+}
+
+/// `postpro predict` without the exports that need every block or sample: the survey, then the
+/// prediction pass with the travels checked, a window at a time as the main job reads the file;
+/// nothing proportional to the file is held, and nothing is written.
+pub(crate) fn predict(request: &Request<'_>) -> Result<Streamed, ExitCode> {
+    let progress = Progress::on_stderr(&[1, 8]);
+    let streamed = surveyed(request, &progress, |passes, predicting| passes.predicted(predicting));
+    progress.finish();
+    streamed
+}
+
+impl Passes<'_> {
+    /// The prediction to make, as the request asks (none with `--no-predict`).
+    fn predicting(&self) -> Option<Predicting<'_>> {
+        let (kin, mode) = (self.pass.kin, self.mode);
+        let timing =
+            if mode.feeds_the_tip() { postpro_predict::Timing::TipFeed } else { postpro_predict::Timing::AxisFeed };
+        self.how.prediction.map(|(prediction, marks)| Predicting {
+            machine: kin.machine(),
+            reader: Reader::new(timing),
+            blocks: Blocks::new(kin.machine()),
+            predictor: Predictor::new(
+                kin,
+                &crate::predict::options_for(mode, prediction),
+                kin.machine().axes.len(),
+                true,
+            ),
+            marks: MarkFinder::new(marks.rules(prediction)),
+        })
+    }
+
+    /// The prediction pass alone, and what it found; where the 3+2 set-ups it finds stand in
+    /// working planes, a pass of their own predicts the program in them (as the main job writes
+    /// it).
+    fn predicted(&self, predicting: Option<Predicting<'_>>) -> Result<Streamed, ExitCode> {
+        let (progress, file) = (self.pass.progress, self.file);
+        let fail = |message: &str| progress.suspend(|| crate::job::fail(message, 1));
+        let Some(mut p) = predicting else { return Err(fail("error: no prediction asked for\n")) };
+        progress.pass(1, "predicting the feed");
+        let started = std::time::Instant::now();
+        let failed = |e: Failure| match e {
+            Failure::Pass(e) => (self.render)(e),
+            Failure::Emit(e) => fail(&report::render(&e)),
+            Failure::Refused(message) => fail(&message),
+        };
+        let mut checked = self.checked(&mut p);
+        let passed = self.prediction_pass(&mut checked).map_err(failed)?;
+        let mut travel = checked.finish().map_err(|e| (self.render)(e))?;
+        let planes = if self.how.shapes.planes {
+            let survey = passed.survey.clone().unwrap_or_default();
+            crate::job::planes_for(self.machine, self.mode, self.how.dialect, &survey)
+        } else {
+            None
+        };
+        let passed = match planes {
+            Some(kind) => {
+                // The blocks in the working planes' frame: the prediction again, on them.
+                let mut job = self.pass.job.clone();
+                job.frame = postpro_motion::part_zero_frame(self.pass.kin);
+                let mut motion_options = self.motion_options.clone();
+                motion_options.planes = Some(kind);
+                let pass = Pass { job: &job, ..self.pass };
+                let survey = passed.survey.unwrap_or_default();
+                let replay = (&self.surveyed.choice, Some(passed.shape));
+                p = self.predicting().ok_or_else(|| fail("error: no prediction asked for\n"))?;
+                let mut checked = self.checked(&mut p);
+                let again = pass.run(&motion_options, survey.set_ups, replay, false, &mut checked);
+                let checked = checked.finish();
+                let again = again.map_err(|e| (self.render)(e))?;
+                travel = checked.map_err(|e| (self.render)(e))?;
+                again
+            }
+            None => passed,
+        };
+        let done = p.predictor.finish(&p.blocks);
+        p.take(done);
+        let seconds = started.elapsed().as_secs_f64();
+        progress.finish();
+        let strict = self.how.setup.strict;
+        let warnings = warn_all(file, passed.summary.warnings.iter().chain(&travel), strict);
+        if strict && warnings > 0 {
+            return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors\n")));
+        }
+        let prediction = postpro_predict::Prediction {
+            blocks: Vec::new(),
+            samples: None,
+            totals: Some(p.predictor.totals()),
+            notes: std::mem::take(&mut p.blocks.notes),
+            operations: p.predictor.operations(),
+        };
+        let marks = p.marks.finish();
+        let line = |span: Span| file.line_col(span.start as usize).line;
+        Ok(Streamed {
+            machine: self.machine.clone(),
+            mode: self.mode,
+            blocks: p.blocks.len(),
+            mark_lines: marks.iter().map(|m| line(m.span)).collect(),
+            note_lines: prediction.notes.iter().map(|n| line(n.span)).collect(),
+            prediction,
+            marks,
+            name: file.name().to_string(),
+            seconds,
+        })
+    }
+}
+
 /// The main job, streamed (see the module's documentation), with a progress bar on a terminal.
 pub(crate) fn run(request: &Request<'_>) -> ExitCode {
     // The passes' shares of the time, as measured on a million CL points (survey 0.5 s,
@@ -630,11 +788,21 @@ pub(crate) fn run(request: &Request<'_>) -> ExitCode {
 }
 
 fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode> {
+    surveyed(how, progress, write_program)
+}
+
+/// The survey (see the module's documentation) and what the passes after it share, handed to
+/// `then` with the prediction to make (none with `--no-predict`).
+fn surveyed<R>(
+    how: &Request<'_>,
+    progress: &Progress,
+    then: impl FnOnce(&Passes<'_>, Option<Predicting<'_>>) -> Result<R, ExitCode>,
+) -> Result<R, ExitCode> {
     // What is printed while the bar may be on the screen is printed with the bar put away.
     let fail = |message: &str, code: u8| progress.suspend(|| crate::job::fail(message, code));
-    let (dialect, output) = (how.dialect, how.output);
+    let (dialect, nothing) = (how.dialect, how.nothing());
     // Before the file is read: no bar on the screen yet.
-    let (machine, setup) = crate::job::machine_and_setup(how.chosen, how.ikt, how.setup, WRITTEN)?;
+    let (machine, setup) = crate::job::machine_and_setup(how.chosen, how.ikt, how.setup, nothing)?;
     let file = ClFile::open(how.file).map_err(|e| fail(&format!("error: {e}\n"), 1))?;
     progress.set_len(file.len() as u64);
     let read_options = how.setup.read.options();
@@ -661,29 +829,33 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
             }
             Err(e) => eprintln!("error: {e}"),
         });
-        return Err(fail(&format!("error: {} does not read; {WRITTEN}\n", file.name()), 1));
+        return Err(fail(&format!("error: {} does not read; {nothing}\n", file.name()), 1));
     }
     let strict = how.setup.strict;
-    let mut warnings =
-        progress.suspend(|| crate::job::report_reading(&file, (&surveyed.info, &surveyed.diagnostics), strict, true));
+    // What the reader passed over is the main job's to say.
+    let passed_over = how.writes();
+    let mut warnings = progress
+        .suspend(|| crate::job::report_reading(&file, (&surveyed.info, &surveyed.diagnostics), strict, passed_over));
     if !surveyed.moves {
-        return Err(fail(&crate::job::no_motion(file.name(), surveyed.info.apt_source, WRITTEN), 1));
+        return Err(fail(&crate::job::no_motion(file.name(), surveyed.info.apt_source, nothing), 1));
     }
     let mode = how.mode.resolve_turning(surveyed.turns_tool, &machine, dialect);
     let job =
         postpro_motion::Job::with_tooling(kin, surveyed.tooling.clone(), mode, setup.work_offset.unwrap_or_default());
     let mut job = job.map_err(|e| {
         let rendered = render_in(e, &file);
-        fail(&format!("{rendered}error: {WRITTEN}\n"), 1)
+        fail(&format!("{rendered}error: {nothing}\n"), 1)
     })?;
     warnings += progress.suspend(|| warn_all(&file, &surveyed.tool_warnings, strict));
     if strict && warnings > 0 {
-        return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"), 1));
+        return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors; {nothing}\n"), 1));
     }
     if let Some(e) = surveyed.graph_error.clone() {
         return Err(render(PassError::Solve(e)));
     }
-    progress.suspend(|| crate::emit::check_writing(dialect, mode, how.tcp_orientation))?;
+    if how.writes() {
+        progress.suspend(|| crate::emit::check_writing(dialect, mode, how.tcp_orientation))?;
+    }
 
     // 2. The prediction and the survey of the steps; 3. the program. Where nothing in the program
     // waits for the prediction's end, the prediction pass writes it as it goes ([`Speculation`]).
@@ -693,15 +865,6 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
     let mut motion_options = postpro_emit::motion_options(dialect, mode, !how.shapes.linear_arcs);
     motion_options.cycles = !how.shapes.expand_cycles;
     job.work_offset = setup.work_offset.unwrap_or_else(|| dialect.default_work_offset());
-    let timing =
-        if mode.feeds_the_tip() { postpro_predict::Timing::TipFeed } else { postpro_predict::Timing::AxisFeed };
-    let predicting = how.prediction.map(|(prediction, marks)| Predicting {
-        machine: kin.machine(),
-        reader: Reader::new(timing),
-        blocks: Blocks::new(kin.machine()),
-        predictor: Predictor::new(kin, &crate::predict::options_for(mode, prediction), kin.machine().axes.len(), true),
-        marks: MarkFinder::new(marks.rules(prediction)),
-    });
     let options = Options {
         units: setup.units(&machine),
         program_name: how.program_name.clone(),
@@ -723,8 +886,20 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
         motion_options: &motion_options,
         options: &options,
         started,
+        surveyed_at,
         predicted_at: std::cell::Cell::new(None),
+        render: &render,
     };
+    then(&passes, passes.predicting())
+}
+
+/// The main job's passes after the survey: the program written, and what it says on standard
+/// error.
+fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Result<ExitCode, ExitCode> {
+    let (how, progress, file, machine) = (passes.how, passes.pass.progress, passes.file, passes.machine);
+    let started = passes.started;
+    let fail = |message: &str, code: u8| progress.suspend(|| crate::job::fail(message, code));
+    let output = how.output;
     if passes.speculates() {
         progress.set_weights(&[1, 10]);
     }
@@ -750,14 +925,16 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
                     format!("error: cannot write {}: {message}\n", output.display())
                 }
                 Failure::Emit(e) => report::render(&e),
-                Failure::Pass(e) => return Err(render(e)),
+                Failure::Pass(e) => return Err((passes.render)(e)),
                 Failure::Refused(message) => message,
             };
             return Err(fail(&message, 1));
         }
         (Ok(()), None) => return Err(fail(&format!("error: the program was not made; {WRITTEN}\n"), 1)),
     };
+    let surveyed_at = passes.surveyed_at;
     let predicted_at = passes.predicted_at.get().unwrap_or(surveyed_at);
+    let inserts = passes.surveyed.inserts;
     let Outcome { summary, predicted_time, passes } = outcome;
     progress.finish();
     if how.timing {
@@ -780,7 +957,7 @@ fn main_job(how: &Request<'_>, progress: &Progress) -> Result<ExitCode, ExitCode
             (total - predicted_at).as_secs_f64(),
         );
     }
-    let (inserts, first_insert) = surveyed.inserts;
+    let (inserts, first_insert) = inserts;
     if let (false, Some(first)) = (how.insert_verbatim, first_insert) {
         eprintln!(
             "note: {inserts} INSERT text(s) written as comments (first at {}); `--insert verbatim` passes them to the \

@@ -199,6 +199,60 @@ fn timing_goes_to_stderr_and_leaves_the_table_alone() {
     assert!(err.contains("M samples/s"), "{err}");
 }
 
+/// Without an export that needs every block or sample, `predict` streams the file as the main
+/// job does (two passes, a window at a time; a third where the 3+2 set-ups stand in working
+/// planes) and holds nothing proportional to it. What it prints and says is what the whole-path
+/// prediction behind `--csv` prints and says, to the last digit: 5-axis in every mode, B-spline,
+/// the VPOp planner, 3+2 programs in working planes (where the figures depend on them) and one
+/// written as axis values, a 3-axis program, and a file that does not fit the machine.
+#[test]
+fn the_streamed_prediction_prints_what_the_whole_one_prints() {
+    let dir = common::scratch(
+        "predict",
+        "streamed",
+        &[
+            (EXAMPLE, CL),
+            ("examples/cl/hypar-3plus2.cl", "hypar-3plus2.cl"),
+            ("examples/cl/manta-5axis.cl", "manta-5axis.cl"),
+        ],
+    );
+    let real = |name: &str| tests::shared_cl_dir().join(name).to_str().expect("a UTF-8 path").to_string();
+    let (vmc_file, side, nurbs) = (
+        real("steptools__STEPNode__Plane_1.cldata"),
+        real("aamorim1913__AptPostProcessor__Teste-Metrologia.apt"),
+        real("HumMan__CLSFProcessor__nurbs.clsf"),
+    );
+    let cases: &[(&str, &str, &[&str])] = &[
+        (CL, MACHINE, &[]),
+        (CL, MACHINE, &["--mode", "g1"]),
+        (CL, MACHINE, &["--mode", "bspline"]),
+        (CL, MACHINE, &["--mode", "tcp", "--planner", "vpop"]),
+        ("manta-5axis.cl", "maho600e", &["--threshold", "90", "--max-marks", "3"]),
+        ("hypar-3plus2.cl", MACHINE, &[]),
+        ("hypar-3plus2.cl", MACHINE, &["--plane-mode", "joints"]),
+        ("hypar-3plus2.cl", "maho600e", &[]),
+        // In working planes the blocks (and which of them are written) differ: the figures too.
+        (&side, "haas-umc750", &[]),
+        (&nurbs, "maho600e", &[]),
+        (&vmc_file, "example-3axis-vmc", &[]),
+        (CL, "example-3axis-vmc", &[]),
+    ];
+    for &(file, machine, args) in cases {
+        let case = format!("{file} on {machine} {}", args.join(" "));
+        let mut streamed = vec!["predict", file, "--machine", machine];
+        streamed.extend_from_slice(args);
+        let mut whole = streamed.clone();
+        whole.extend_from_slice(&["--csv", "samples.csv"]);
+        let (streamed, whole) = (postpro(&streamed, &dir), postpro(&whole, &dir));
+        assert_eq!(streamed.status.code(), whole.status.code(), "{case}: {}", stderr(&streamed));
+        assert_eq!(stdout(&streamed), stdout(&whole), "{case}");
+        assert_eq!(stderr(&streamed), stderr(&whole), "{case}");
+        if streamed.status.success() {
+            assert!(stdout(&streamed).contains("predicted cycle time"), "{case}");
+        }
+    }
+}
+
 #[test]
 fn help_lists_the_prediction_options() {
     let o = postpro(&["predict", "--help"], &repo());
