@@ -63,6 +63,15 @@ impl Progress {
         self.set_len(self.len.get());
     }
 
+    /// One more pass after pass `index`, as long as it (the job found it has to read the text
+    /// once more).
+    pub(crate) fn repeat_pass(&self, index: usize) {
+        let mut weights = self.weights.borrow().clone();
+        let weight = weights.get(index).copied().unwrap_or(1);
+        weights.insert((index + 1).min(weights.len()), weight);
+        self.set_weights(&weights);
+    }
+
     /// Pass `index` (from 0) starts, doing `what`.
     pub(crate) fn pass(&self, index: usize, what: &str) {
         let weights = self.weights.borrow();

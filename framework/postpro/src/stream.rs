@@ -16,8 +16,10 @@
 //! afterwards ([`Speculation`], `postpro_emit::write_program_deferred`): the same program, without
 //! the third pass.
 //!
-//! `postpro predict` runs the first two passes alone ([`predict`]), and a third where the 3+2
-//! set-ups stand in working planes, whose frame changes the blocks.
+//! Where the 3+2 set-ups stand in working planes, whose frame changes their blocks, a pass of its
+//! own predicts again on the blocks in the planes before the writing: the header and comments are
+//! those of the program written. `postpro predict` runs the passes but the writing
+//! ([`predict`]).
 //!
 //! Every pass runs the same stages on the same items, so the step and block numbers the
 //! prediction's marks name are those of the program written. An error in any pass leaves
@@ -374,6 +376,8 @@ struct Concluded {
     /// The header's prediction and the slowdowns' comments.
     prediction: Option<postpro_emit::Prediction>,
     annotations: Vec<postpro_emit::Annotation>,
+    /// The prediction was made again in a pass of its own, on the blocks in working planes.
+    repredicted: bool,
 }
 
 /// What the main job reports once the program is written.
@@ -425,7 +429,7 @@ impl Passes<'_> {
                     // Working planes, or comments the body has no place for: the program is
                     // written by a pass of its own, which the bar makes room for.
                     (false, Some(c)) => {
-                        self.pass.progress.set_weights(&[1, 10, 5]);
+                        self.pass.progress.set_weights(if c.repredicted { &[1, 10, 8, 5] } else { &[1, 10, 5] });
                         c
                     }
                     // Nothing was produced (the options or the template do not allow it).
@@ -504,6 +508,20 @@ impl Passes<'_> {
         } else {
             None
         };
+        // In working planes the set-ups' blocks differ: the prediction is made again on them, as
+        // the program is written.
+        let (predicting, repredicted) = match (planes, predicting) {
+            (Some(kind), Some(_)) => {
+                progress.repeat_pass(1);
+                progress.pass(2, "predicting in the planes");
+                let mut again = self.predicting();
+                if let Some(p) = again.as_mut() {
+                    self.planes_pass(kind, &survey, shape.clone(), p).map_err(Failure::Pass)?;
+                }
+                (again, true)
+            }
+            (_, predicting) => (predicting, false),
+        };
         let (prediction, annotations) = match (predicting, how.prediction) {
             (Some(mut p), Some((args, _))) => {
                 let done = p.predictor.finish(&p.blocks);
@@ -521,7 +539,25 @@ impl Passes<'_> {
             }
             _ => (None, Vec::new()),
         };
-        Ok(Concluded { summary, survey, shape, planes, prediction, annotations })
+        Ok(Concluded { summary, survey, shape, planes, prediction, annotations, repredicted })
+    }
+
+    /// A pass of the stages with the 3+2 set-ups in working planes of `kind` (their frame), the
+    /// set-ups and linearization the prediction pass found (`survey`, `shape`), its blocks to
+    /// `sink`.
+    fn planes_pass(
+        &self,
+        kind: postpro_motion::PlaneKind,
+        survey: &Survey,
+        shape: Shape,
+        sink: &mut dyn MotionSink,
+    ) -> Result<Passed, PassError> {
+        let mut job = self.pass.job.clone();
+        job.frame = postpro_motion::part_zero_frame(self.pass.kin);
+        let mut motion_options = self.motion_options.clone();
+        motion_options.planes = Some(kind);
+        let pass = Pass { job: &job, ..self.pass };
+        pass.run(&motion_options, survey.set_ups.clone(), (&self.surveyed.choice, Some(shape)), false, sink)
     }
 
     /// The motion program's facts for the header, with `job` and `summary`.
@@ -543,7 +579,7 @@ impl Passes<'_> {
     fn write_pass(&self, out: &mut dyn Write, c: Concluded) -> Result<Outcome, Failure> {
         let (how, progress) = (self.how, self.pass.progress);
         self.predicted_at.set(self.predicted_at.get().or(Some(self.elapsed())));
-        progress.pass(2, "writing the program");
+        progress.pass(2 + usize::from(c.repredicted), "writing the program");
         let mut job = self.pass.job.clone();
         if c.planes.is_some() {
             job.frame = postpro_motion::part_zero_frame(self.pass.kin);
@@ -580,7 +616,7 @@ impl Passes<'_> {
             WriteError::Produce(e) => Failure::Pass(e),
         })?;
         self.travel_warnings(&travel)?;
-        Ok(Outcome { summary, predicted_time, passes: 3 })
+        Ok(Outcome { summary, predicted_time, passes: 3 + u8::from(c.repredicted) })
     }
 
     /// Reports the travel check's warnings (refused with `--strict`).
@@ -728,16 +764,12 @@ impl Passes<'_> {
         let passed = match planes {
             Some(kind) => {
                 // The blocks in the working planes' frame: the prediction again, on them.
-                let mut job = self.pass.job.clone();
-                job.frame = postpro_motion::part_zero_frame(self.pass.kin);
-                let mut motion_options = self.motion_options.clone();
-                motion_options.planes = Some(kind);
-                let pass = Pass { job: &job, ..self.pass };
+                progress.repeat_pass(1);
+                progress.pass(2, "predicting in the planes");
                 let survey = passed.survey.unwrap_or_default();
-                let replay = (&self.surveyed.choice, Some(passed.shape));
                 p = self.predicting().ok_or_else(|| fail("error: no prediction asked for\n"))?;
                 let mut checked = self.checked(&mut p);
-                let again = pass.run(&motion_options, survey.set_ups, replay, false, &mut checked);
+                let again = self.planes_pass(kind, &survey, passed.shape, &mut checked);
                 let checked = checked.finish();
                 let again = again.map_err(|e| (self.render)(e))?;
                 travel = checked.map_err(|e| (self.render)(e))?;
