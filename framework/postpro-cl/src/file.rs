@@ -161,6 +161,19 @@ impl ClFile {
         Locate::location(self, offset)
     }
 
+    /// The lines of offsets asked for in increasing order (a pass's items, each step of a
+    /// solution), by one more reading of the file from its start: each look-up reads on from the
+    /// last, where [`ClFile::line_col`] reads a stretch of the file every time.
+    pub fn lines(&self) -> Result<Lines, Error> {
+        let io = |source| Error::Io { path: self.name.clone(), source };
+        let file = std::fs::File::open(&self.path).map_err(io)?;
+        if stamp_of(&file).map_err(io)? != self.stamp {
+            return Err(Error::Changed { path: self.name.clone() });
+        }
+        let reader = std::io::BufReader::with_capacity(BLOCK, file);
+        Ok(Lines { reader, latin1: self.latin1, len: self.len, text: 0, line: 1, after_cr: false })
+    }
+
     /// The checkpoints, found by reading the file once (`None` if it cannot be read).
     fn checkpoints(&self) -> Option<&[Checkpoint]> {
         if let Some(points) = self.checkpoints.get() {
@@ -274,6 +287,61 @@ impl ClFile {
             Ok(text) if !self.latin1 => out.push_str(text),
             _ => out.extend(bytes.iter().map(|&b| char::from(b))),
         }
+    }
+}
+
+/// The line of each offset of a [`ClFile`]'s text, asked for in increasing order
+/// ([`ClFile::lines`]): the lines [`ClFile::line_col`] gives (a line ends at `\n`, `\r\n` or a
+/// lone `\r`).
+#[derive(Debug)]
+pub struct Lines {
+    reader: std::io::BufReader<std::fs::File>,
+    latin1: bool,
+    len: usize,
+    /// The offset of the text read up to, and its line.
+    text: usize,
+    line: usize,
+    /// The last byte read was a `\r`: a line starts after it unless a `\n` follows.
+    after_cr: bool,
+}
+
+impl Lines {
+    /// The line (1-based) of `offset`, which is not below the last one asked for (an offset
+    /// below it gets the line of the last one); the end of the text for an offset beyond it.
+    pub fn line(&mut self, offset: usize) -> std::io::Result<usize> {
+        use std::io::BufRead;
+        let offset = offset.min(self.len);
+        while self.text < offset {
+            let buffer = self.reader.fill_buf()?;
+            if buffer.is_empty() {
+                break;
+            }
+            let mut used = 0;
+            for &b in buffer {
+                if self.text >= offset {
+                    break;
+                }
+                used += 1;
+                // A lone `\r` ended a line: the byte after it starts one.
+                if self.after_cr && b != b'\n' {
+                    self.line += 1;
+                }
+                self.after_cr = b == b'\r';
+                if b == b'\n' {
+                    self.line += 1;
+                }
+                self.text += if self.latin1 && b >= 0x80 { 2 } else { 1 };
+            }
+            self.reader.consume(used);
+        }
+        // At a `\r`'s end: a line starts here unless a `\n` comes next.
+        if self.after_cr {
+            let next = self.reader.fill_buf()?.first().copied();
+            if next != Some(b'\n') {
+                return Ok(self.line + 1);
+            }
+        }
+        Ok(self.line)
     }
 }
 

@@ -38,7 +38,7 @@ mod words;
 use std::path::Path;
 
 pub use diagnostic::{Diagnostic, Severity};
-pub use file::ClFile;
+pub use file::{ClFile, Lines};
 pub use model::*;
 pub use read::{ItemSink, ReadOptions, read, read_into, read_into_with, read_with};
 pub use span::{LineCol, Locate, Source, Span};

@@ -12,10 +12,11 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use postpro_cl::Source;
-use postpro_kin::{Solved, StepKind};
+use postpro_cl::Locate;
+use postpro_kin::{Collected, StepKind};
 use postpro_machine::model::{AxisKind, BranchPreference, Machine, OnDiscontinuity, PathChoice, SolverKind};
 use postpro_machine::{Origin, Registry};
+use postpro_motion::WorkFrame;
 use postpro_plugins::{Plugins, Solver};
 
 use crate::job::fail;
@@ -217,33 +218,178 @@ impl MachineArgs {
     }
 }
 
+/// What an error of `postpro solve` says was not done.
+pub(crate) const SOLVED: &str = "nothing solved";
+
+/// Solves the file as the main job reads it (`stream::solve`): the summary (ranges, counts and
+/// decisions) is gathered as the steps come and the CSV rows wait in a scratch file, so nothing
+/// proportional to the file is held in memory and nothing is printed before the end.
 pub(crate) fn run(args: &SolveArgs) -> ExitCode {
     let chosen = match args.machine.choose() {
         Ok(c) => c,
         Err(code) => return code,
     };
-    let mode = postpro_emit::Mode::G1;
-    let how = (crate::emit::ModeArg::G1, crate::job::machine_dialect(&chosen.machine));
-    let job = match crate::job::prepare(&args.file, &chosen, &args.ikt, &args.setup, how, "nothing solved") {
-        Ok(job) => job,
+    let dialect = crate::job::machine_dialect(&chosen.machine);
+    let unused = (String::new(), String::new());
+    let request = crate::stream::Request {
+        purpose: crate::stream::Purpose::Solution,
+        file: &args.file,
+        chosen: &chosen,
+        ikt: &args.ikt,
+        setup: &args.setup,
+        mode: crate::emit::ModeArg::G1,
+        dialect,
+        template: &unused,
+        output: Path::new("-"),
+        program_name: String::new(),
+        block_numbers: false,
+        shapes: crate::job::Shapes::default(),
+        tcp_orientation: postpro_emit::TcpOrientation::default(),
+        insert_verbatim: false,
+        prediction: None,
+        timing: false,
+        three_passes: false,
+    };
+    let mut rows = match args.csv.then(|| Rows::new(&chosen.machine)).transpose() {
+        Ok(rows) => rows,
+        Err(e) => return fail(&format!("error: cannot make a scratch file for the rows: {e}\n"), 1),
+    };
+    let mut seen = Seen::new(&chosen.machine);
+    let mut failed = None;
+    let mut each = |collected: &Collected, file: &postpro_cl::ClFile, frame: &WorkFrame| {
+        let machine = &chosen.machine;
+        seen.steps(machine, collected, file, frame);
+        if let Some(rows) = rows.as_mut()
+            && failed.is_none()
+            && let Err(e) = rows.push(machine, collected, file, frame)
+        {
+            failed = Some(e);
+        }
+    };
+    let solution = match crate::stream::solve(&request, &mut each) {
+        Ok(solution) => solution,
         Err(code) => return code,
     };
-    let frame = postpro_motion::work_frame(job.solver.kinematics(), mode);
-    let crate::job::Job { source, machine, solver, mut solved, .. } = job;
-    // The axis values as the program writes them: in the work offset's frame.
-    for s in &mut solved.steps {
-        s.joints = frame.apply(&s.joints);
+    if let Some(e) = failed {
+        return fail(&format!("error: cannot write the scratch file: {e}\n"), 1);
     }
-    let kinematics = match &solver {
-        Solver::Plugin(a) => Some(format!("plugin {} (checked against the definition)", a.library().display())),
-        Solver::Built(_) => None,
-    };
-    let text = if args.csv {
-        csv(&machine, &source, &solved)
-    } else {
-        summary(&machine, &source, &solved, kinematics.as_deref(), &frame.describe())
-    };
-    report::print_stdout(&text)
+    match rows {
+        Some(rows) => rows.print(),
+        None => report::print_stdout(&summary(&solution, &seen)),
+    }
+}
+
+/// What the summary says of the steps, gathered as they come.
+struct Seen {
+    positions: usize,
+    /// The positions of CL points (re-engagements included).
+    cl: usize,
+    /// Each axis's lowest and highest value, in its NC unit.
+    ranges: Vec<(f64, f64)>,
+    /// Each decision: where, and what.
+    decisions: Vec<String>,
+}
+
+impl Seen {
+    fn new(machine: &Machine) -> Seen {
+        let ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); machine.axes.len()];
+        Seen { positions: 0, cl: 0, ranges, decisions: Vec::new() }
+    }
+
+    /// Takes in one CL item's steps and decisions.
+    fn steps(&mut self, machine: &Machine, collected: &Collected, file: &dyn Locate, frame: &WorkFrame) {
+        for s in &collected.steps {
+            self.positions += 1;
+            self.cl += usize::from(matches!(s.kind, StepKind::Cl | StepKind::Reengage));
+            let joints = frame.apply(&s.joints);
+            for (i, (lo, hi)) in self.ranges.iter_mut().enumerate() {
+                let v = value(machine, i, joints[i]);
+                (*lo, *hi) = (lo.min(v), hi.max(v));
+            }
+        }
+        for d in &collected.decisions {
+            self.decisions.push(format!("  {}: {}", file.location(d.span.start as usize), d.decision));
+        }
+    }
+}
+
+/// The CSV rows, waiting in a scratch file until the solution is whole (an error prints none).
+struct Rows {
+    file: std::io::BufWriter<std::fs::File>,
+    path: PathBuf,
+    index: usize,
+    text: String,
+    /// The CL lines of the steps, read on as they come (opened with the first).
+    lines: Option<postpro_cl::Lines>,
+}
+
+impl Rows {
+    /// A scratch file in the temporary folder, with the header row.
+    fn new(machine: &Machine) -> std::io::Result<Rows> {
+        let path = std::env::temp_dir().join(format!("postpro-{}.solve.csv", std::process::id()));
+        let file = std::io::BufWriter::new(std::fs::File::create(&path)?);
+        let mut rows = Rows { file, path, index: 0, text: String::from("step,line,kind,rapid"), lines: None };
+        for a in &machine.axes {
+            let unit = if a.kind == AxisKind::Rotary { "deg" } else { "mm" };
+            let _ = write!(rows.text, ",{}_{unit}", a.letter);
+        }
+        rows.text.push('\n');
+        rows.flush_text()?;
+        Ok(rows)
+    }
+
+    /// Writes one CL item's steps of `file`, their axis values in `frame`.
+    fn push(
+        &mut self,
+        machine: &Machine,
+        collected: &Collected,
+        file: &postpro_cl::ClFile,
+        frame: &WorkFrame,
+    ) -> std::io::Result<()> {
+        if self.lines.is_none() {
+            self.lines = Some(file.lines().map_err(std::io::Error::other)?);
+        }
+        for s in &collected.steps {
+            let line = match self.lines.as_mut() {
+                Some(lines) => lines.line(s.span.start as usize)?,
+                None => 0,
+            };
+            let joints = frame.apply(&s.joints);
+            let _ = write!(self.text, "{},{line},{},{}", self.index, kind(s.kind), u8::from(s.rapid));
+            self.index += 1;
+            for (i, a) in machine.axes.iter().enumerate() {
+                self.text.push(',');
+                postpro_emit::push_number(&mut self.text, value(machine, i, joints[i]), usize::from(a.decimals), false);
+            }
+            self.text.push('\n');
+        }
+        self.flush_text()
+    }
+
+    fn flush_text(&mut self) -> std::io::Result<()> {
+        std::io::Write::write_all(&mut self.file, self.text.as_bytes())?;
+        self.text.clear();
+        Ok(())
+    }
+
+    /// Copies the rows to standard output; a closed pipe ends quietly.
+    fn print(mut self) -> ExitCode {
+        let copied = std::io::Write::flush(&mut self.file).and_then(|()| {
+            let mut rows = std::fs::File::open(&self.path)?;
+            std::io::copy(&mut rows, &mut std::io::stdout().lock())
+        });
+        match copied {
+            Ok(_) => ExitCode::SUCCESS,
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+            Err(e) => fail(&format!("error: cannot write to standard output: {e}\n"), 1),
+        }
+    }
+}
+
+impl Drop for Rows {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
 }
 
 fn value(machine: &Machine, axis: usize, v: f64) -> f64 {
@@ -260,54 +406,29 @@ fn kind(k: StepKind) -> &'static str {
     }
 }
 
-fn csv(machine: &Machine, source: &Source, solved: &Solved) -> String {
-    let mut out = String::from("step,line,kind,rapid");
-    for a in &machine.axes {
-        let unit = if a.kind == AxisKind::Rotary { "deg" } else { "mm" };
-        let _ = write!(out, ",{}_{unit}", a.letter);
-    }
-    out.push('\n');
-    for (k, s) in solved.steps.iter().enumerate() {
-        let line = source.line_col(s.span.start as usize).line;
-        let _ = write!(out, "{k},{line},{},{}", kind(s.kind), u8::from(s.rapid));
-        for (i, a) in machine.axes.iter().enumerate() {
-            out.push(',');
-            postpro_emit::push_number(&mut out, value(machine, i, s.joints[i]), usize::from(a.decimals), false);
-        }
-        out.push('\n');
-    }
-    out
-}
-
-fn summary(machine: &Machine, source: &Source, solved: &Solved, kinematics: Option<&str>, origin: &str) -> String {
+fn summary(solution: &crate::stream::Solution, seen: &Seen) -> String {
+    let machine = &solution.machine;
     let mut out = String::new();
-    let cl = solved.steps.iter().filter(|s| matches!(s.kind, StepKind::Cl | StepKind::Reengage)).count();
     let _ = writeln!(out, "machine     {} ({})", machine.name, machine.topology().label());
-    if let Some(k) = kinematics {
-        let _ = writeln!(out, "kinematics  {k}");
+    if let Some(library) = &solution.plugin {
+        let _ = writeln!(out, "kinematics  plugin {} (checked against the definition)", library.display());
     }
-    let _ = writeln!(out, "file        {}", source.name());
-    let _ = writeln!(out, "frame       the work offset, set on {origin}");
+    let _ = writeln!(out, "file        {}", solution.name);
+    let _ = writeln!(out, "frame       the work offset, set on {}", solution.frame.describe());
     let _ = writeln!(
         out,
-        "positions   {} ({cl} from the CL file, {} added by linearization within {} mm)",
-        solved.steps.len(),
-        solved.inserted,
-        machine.policy.linearization_tolerance
+        "positions   {} ({} from the CL file, {} added by linearization within {} mm)",
+        seen.positions, seen.cl, solution.inserted, machine.policy.linearization_tolerance
     );
-    for (i, a) in machine.axes.iter().enumerate() {
-        let (lo, hi) = solved
-            .steps
-            .iter()
-            .map(|s| value(machine, i, s.joints[i]))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    for (a, (lo, hi)) in machine.axes.iter().zip(&seen.ranges) {
         let unit = if a.kind == AxisKind::Rotary { "°" } else { " mm" };
         let d = usize::from(a.decimals);
         let _ = writeln!(out, "axis {:<6} {lo:.d$} … {hi:.d$}{unit}", a.letter);
     }
-    let _ = writeln!(out, "decisions   {}", solved.decisions.len());
-    for d in &solved.decisions {
-        let _ = writeln!(out, "  {}: {}", source.location(d.span.start as usize), d.decision);
+    let _ = writeln!(out, "decisions   {}", seen.decisions.len());
+    for d in &seen.decisions {
+        out.push_str(d);
+        out.push('\n');
     }
     out
 }

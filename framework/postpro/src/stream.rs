@@ -19,7 +19,7 @@
 //! Where the 3+2 set-ups stand in working planes, whose frame changes their blocks, a pass of its
 //! own predicts again on the blocks in the planes before the writing: the header and comments are
 //! those of the program written. `postpro predict` runs the passes but the writing
-//! ([`predict`]).
+//! ([`predict`]); `postpro solve` the survey and the stages up to the linearization ([`solve`]).
 //!
 //! Every pass runs the same stages on the same items, so the step and block numbers the
 //! prediction's marks name are those of the program written. An error in any pass leaves
@@ -56,6 +56,8 @@ pub(crate) enum Purpose {
     Program,
     /// `postpro predict`: the prediction alone (the fields about the program are not used).
     Prediction,
+    /// `postpro solve`: the axis values alone (nor are the prediction's).
+    Solution,
 }
 
 /// What the main job (or `postpro predict`, streamed) is asked for.
@@ -107,6 +109,7 @@ impl Request<'_> {
         match self.purpose {
             Purpose::Program => WRITTEN,
             Purpose::Prediction => crate::predict::PREDICTED,
+            Purpose::Solution => crate::solve::SOLVED,
         }
     }
 }
@@ -364,6 +367,8 @@ struct Passes<'a> {
     predicted_at: std::cell::Cell<Option<std::time::Duration>>,
     /// A pass's error, reported.
     render: &'a dyn Fn(PassError) -> ExitCode,
+    /// Whose kinematics solve (a plugin's, or the definition's).
+    solver: &'a postpro_plugins::Solver,
 }
 
 /// What the prediction pass found, for the program.
@@ -809,6 +814,78 @@ impl Passes<'_> {
     }
 }
 
+/// What `postpro solve` says besides each position's axis values ([`solve`]).
+pub(crate) struct Solution {
+    /// The machine, as defined (with the policy's options).
+    pub(crate) machine: Machine,
+    /// A plugin's library, where its kinematics solve.
+    pub(crate) plugin: Option<std::path::PathBuf>,
+    /// The frame the axis values are in.
+    pub(crate) frame: postpro_motion::WorkFrame,
+    /// The CL file's name.
+    pub(crate) name: String,
+    /// The points linearization added.
+    pub(crate) inserted: usize,
+}
+
+/// `postpro solve`: the survey, then the policy's second pass and the linearization (no motion
+/// program), a window at a time; each CL item's steps and decisions go to `each` as they come,
+/// with the file (for their lines) and the frame the program's axis values are in. Nothing
+/// proportional to the file is held.
+pub(crate) fn solve(
+    request: &Request<'_>,
+    each: &mut dyn FnMut(&Collected, &ClFile, &postpro_motion::WorkFrame),
+) -> Result<Solution, ExitCode> {
+    let progress = Progress::on_stderr(&[1, 2]);
+    let solution = surveyed(request, &progress, |passes, _| {
+        progress.pass(1, "solving the kinematics");
+        let frame = postpro_motion::work_frame(passes.pass.kin, passes.mode);
+        let inserted = passes.pass.steps(&passes.surveyed.choice, &mut |c| each(c, passes.file, &frame));
+        progress.finish();
+        Ok(Solution {
+            machine: passes.machine.clone(),
+            plugin: match passes.solver {
+                postpro_plugins::Solver::Plugin(a) => Some(a.library().to_path_buf()),
+                postpro_plugins::Solver::Built(_) => None,
+            },
+            frame,
+            name: passes.file.name().to_string(),
+            inserted: inserted.map_err(|e| (passes.render)(e))?,
+        })
+    });
+    progress.finish();
+    solution
+}
+
+/// The steps of a pass without the motion program ([`Pass::steps`]).
+struct Steps<'a> {
+    tolerance: f64,
+    placing: ToolPlacer<'a>,
+    targets: Vec<Target>,
+    steps: Collected,
+    each: &'a mut dyn FnMut(&Collected),
+    error: Option<PassError>,
+}
+
+impl ItemSink for Steps<'_> {
+    fn push(&mut self, item: Item) {
+        if self.error.is_some() || !matches!(item.kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_)) {
+            return;
+        }
+        self.steps.steps.clear();
+        self.steps.decisions.clear();
+        self.targets.clear();
+        postpro_kin::targets_of(&item, self.tolerance, &mut self.targets);
+        for t in &self.targets {
+            if let Err(e) = self.placing.push(t, &mut self.steps) {
+                self.error = Some(PassError::Solve(e));
+                return;
+            }
+        }
+        (self.each)(&self.steps);
+    }
+}
+
 /// The main job, streamed (see the module's documentation), with a progress bar on a terminal.
 pub(crate) fn run(request: &Request<'_>) -> ExitCode {
     // The passes' shares of the time, as measured on a million CL points (survey 0.5 s,
@@ -921,6 +998,7 @@ fn surveyed<R>(
         surveyed_at,
         predicted_at: std::cell::Cell::new(None),
         render: &render,
+        solver: &solver,
     };
     then(&passes, passes.predicting())
 }
@@ -1137,6 +1215,30 @@ impl Pass<'_> {
         let mut counting = Counting { sink: &mut motions, progress: self.progress };
         self.file.read_into_with(self.read_options, &mut counting).map_err(PassError::Read)?;
         motions.finish()
+    }
+
+    /// Reads the CL file through the policy's second pass (`choice`) and the linearization,
+    /// each item's steps to `each`; returns the points linearization added.
+    fn steps(&self, choice: &postpro_kin::Choice, each: &mut dyn FnMut(&Collected)) -> Result<usize, PassError> {
+        let (kin, policy) = (self.kin, self.policy);
+        let mut steps = Steps {
+            tolerance: policy.linearization_tolerance,
+            placing: ToolPlacer::new(
+                Placer::new(kin, policy, None, choice.clone()),
+                Linearizer::recording(policy),
+                Stretches::starting(kin, self.job.stretch_starts()),
+            ),
+            targets: Vec::new(),
+            steps: Collected::default(),
+            each,
+            error: None,
+        };
+        let mut counting = Counting { sink: &mut steps, progress: self.progress };
+        self.file.read_into_with(self.read_options, &mut counting).map_err(PassError::Read)?;
+        match steps.error {
+            Some(e) => Err(e),
+            None => Ok(steps.placing.inserted()),
+        }
     }
 }
 
