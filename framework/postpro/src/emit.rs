@@ -218,28 +218,30 @@ pub(crate) fn run(args: &EmitArgs) -> ExitCode {
     };
 
     let program_name = file.file_stem().map_or_else(|| "PROGRAM".to_string(), |s| s.to_string_lossy().to_uppercase());
+    let program = crate::stream::Program {
+        template: &template,
+        output: &output,
+        name: program_name,
+        block_numbers: args.block_numbers,
+        tcp_orientation,
+        insert_verbatim: args.insert == InsertArg::Verbatim,
+        timing: args.timing,
+        three_passes: args.three_passes,
+    };
     let request = crate::stream::Request {
-        purpose: crate::stream::Purpose::Program,
+        purpose: crate::stream::Purpose::Program(program),
         file,
         chosen: &chosen,
         ikt: &args.ikt,
         setup: &args.setup,
         mode: args.mode,
         dialect,
-        template: &template,
-        output: &output,
-        program_name,
-        block_numbers: args.block_numbers,
         shapes: crate::job::Shapes {
             linear_arcs: args.arcs == ArcsArg::Linear,
             expand_cycles: args.cycles == CyclesArg::Expand,
             planes: args.plane_mode == PlaneModeArg::Cycle,
         },
-        tcp_orientation,
-        insert_verbatim: args.insert == InsertArg::Verbatim,
         prediction: (!args.no_predict).then_some((&args.prediction, &args.marks)),
-        timing: args.timing,
-        three_passes: args.three_passes,
     };
     crate::stream::run(&request)
 }

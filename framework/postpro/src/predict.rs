@@ -388,7 +388,6 @@ fn streamed(
     dialect: &postpro_emit::Dialect,
     shapes: crate::job::Shapes,
 ) -> ExitCode {
-    let unused = (String::new(), String::new());
     let request = crate::stream::Request {
         purpose: crate::stream::Purpose::Prediction,
         file: &args.file,
@@ -397,16 +396,8 @@ fn streamed(
         setup: &args.setup,
         mode: args.mode,
         dialect,
-        template: &unused,
-        output: Path::new("-"),
-        program_name: String::new(),
-        block_numbers: false,
         shapes,
-        tcp_orientation: postpro_emit::TcpOrientation::default(),
-        insert_verbatim: false,
         prediction: Some((&args.prediction, &args.marks)),
-        timing: false,
-        three_passes: false,
     };
     let s = match crate::stream::predict(&request) {
         Ok(streamed) => streamed,

@@ -230,7 +230,6 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
         Err(code) => return code,
     };
     let dialect = crate::job::machine_dialect(&chosen.machine);
-    let unused = (String::new(), String::new());
     let request = crate::stream::Request {
         purpose: crate::stream::Purpose::Solution,
         file: &args.file,
@@ -239,16 +238,8 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
         setup: &args.setup,
         mode: crate::emit::ModeArg::G1,
         dialect,
-        template: &unused,
-        output: Path::new("-"),
-        program_name: String::new(),
-        block_numbers: false,
         shapes: crate::job::Shapes::default(),
-        tcp_orientation: postpro_emit::TcpOrientation::default(),
-        insert_verbatim: false,
         prediction: None,
-        timing: false,
-        three_passes: false,
     };
     let mut rows = match args.csv.then(|| Rows::new(&chosen.machine)).transpose() {
         Ok(rows) => rows,

@@ -50,20 +50,19 @@ use crate::setup::SetupArgs;
 use crate::solve::{Chosen, IktArgs};
 
 /// What the passes are for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Purpose {
-    /// The main job: the program.
-    Program,
-    /// `postpro predict`: the prediction alone (the fields about the program are not used).
+pub(crate) enum Purpose<'a> {
+    /// The main job: the program, written as `Program` says.
+    Program(Program<'a>),
+    /// `postpro predict`: the prediction alone.
     Prediction,
-    /// `postpro solve`: the axis values alone (nor are the prediction's).
+    /// `postpro solve`: the axis values alone.
     Solution,
 }
 
-/// What the main job (or `postpro predict`, streamed) is asked for.
+/// What the main job (or `postpro predict` or `postpro solve`, streamed) is asked for.
 pub(crate) struct Request<'a> {
-    /// The program, or the prediction alone.
-    pub(crate) purpose: Purpose,
+    /// The program, the prediction or the axis values.
+    pub(crate) purpose: Purpose<'a>,
     /// The CL file.
     pub(crate) file: &'a Path,
     /// The machine.
@@ -76,22 +75,26 @@ pub(crate) struct Request<'a> {
     pub(crate) mode: ModeArg,
     /// Controller dialect.
     pub(crate) dialect: &'a Dialect,
+    /// How arcs, cycles and 3+2 set-ups are written.
+    pub(crate) shapes: Shapes,
+    /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
+    pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
+}
+
+/// How the main job writes the program.
+pub(crate) struct Program<'a> {
     /// The template's name and text.
     pub(crate) template: &'a (String, String),
     /// Where (`-` for standard output).
     pub(crate) output: &'a Path,
     /// The program's name.
-    pub(crate) program_name: String,
+    pub(crate) name: String,
     /// Number the blocks.
     pub(crate) block_numbers: bool,
-    /// How arcs, cycles and 3+2 set-ups are written.
-    pub(crate) shapes: Shapes,
     /// How TCP mode gives the tool's orientation.
     pub(crate) tcp_orientation: postpro_emit::TcpOrientation,
     /// CL `INSERT` text as blocks (else as comments).
     pub(crate) insert_verbatim: bool,
-    /// Predict the feed and mark the slowdowns, with these options (`None`: `--no-predict`).
-    pub(crate) prediction: Option<(&'a PredictionArgs, &'a MarkArgs)>,
     /// Say how long each pass took (`--timing`).
     pub(crate) timing: bool,
     /// Write the program in a pass of its own even where the prediction pass could (to compare).
@@ -101,13 +104,13 @@ pub(crate) struct Request<'a> {
 impl Request<'_> {
     /// True for the main job, which writes a program.
     fn writes(&self) -> bool {
-        self.purpose == Purpose::Program
+        matches!(self.purpose, Purpose::Program(_))
     }
 
     /// What an error says was not done.
     fn nothing(&self) -> &'static str {
         match self.purpose {
-            Purpose::Program => WRITTEN,
+            Purpose::Program(_) => WRITTEN,
             Purpose::Prediction => crate::predict::PREDICTED,
             Purpose::Solution => crate::solve::SOLVED,
         }
@@ -359,8 +362,6 @@ struct Passes<'a> {
     /// The stages from the items to motion blocks, with the job of the prediction pass.
     pass: Pass<'a>,
     motion_options: &'a postpro_motion::Options,
-    /// How the program is written, its prediction and annotations aside.
-    options: &'a Options,
     /// When the survey started, when it ended and when the prediction pass ended (since then).
     started: std::time::Instant,
     surveyed_at: std::time::Duration,
@@ -395,83 +396,6 @@ struct Outcome {
 }
 
 impl Passes<'_> {
-    /// The prediction pass, then the program into `out`: written by the prediction pass as it
-    /// goes where the program does not depend on what the pass finds ([`Self::speculates`]),
-    /// else (or where the 3+2 set-ups it finds are written in working planes) by a pass of its own.
-    fn predict_and_write(&self, out: &mut dyn Write, predicting: Option<Predicting<'_>>) -> Result<Outcome, Failure> {
-        let concluded = match predicting {
-            Some(predicting) if self.speculates() => {
-                let mut body = Speculation {
-                    passes: self,
-                    predicting: Some(predicting),
-                    travel: Vec::new(),
-                    passed: None,
-                    concluded: None,
-                };
-                let output = self.how.output;
-                let (mut scratch, mut places) =
-                    (ScratchFile::beside(output, "body")?, ScratchFile::beside(output, "places")?);
-                let facts = self.facts(self.pass.job, postpro_motion::Summary::default());
-                let template = (self.how.template.0.as_str(), self.how.template.1.as_str());
-                let written = postpro_emit::write_program_deferred(
-                    &facts,
-                    self.machine,
-                    self.how.dialect,
-                    self.options,
-                    template,
-                    out,
-                    (&mut scratch.file, &mut places.file),
-                    &mut body,
-                )
-                .map_err(|e| match e {
-                    WriteError::Emit(e) => Failure::Emit(e),
-                    WriteError::Produce(e) => e,
-                })?;
-                match (written, body.concluded) {
-                    (true, Some(c)) => {
-                        return Ok(Outcome { predicted_time: predicted_time(&c), summary: c.summary, passes: 2 });
-                    }
-                    // Working planes, or comments the body has no place for: the program is
-                    // written by a pass of its own, which the bar makes room for.
-                    (false, Some(c)) => {
-                        self.pass.progress.set_weights(if c.repredicted { &[1, 10, 8, 5] } else { &[1, 10, 5] });
-                        c
-                    }
-                    // Nothing was produced (the options or the template do not allow it).
-                    _ => match body.predicting {
-                        Some(predicting) => self.predict(Some(predicting))?,
-                        None => return Err(Failure::Refused(format!("error: the program was not made; {WRITTEN}\n"))),
-                    },
-                }
-            }
-            predicting => self.predict(predicting)?,
-        };
-        self.write_pass(out, concluded)
-    }
-
-    /// True when the program the writing pass would write is the one the prediction pass makes as
-    /// it goes, but for the slowdowns' comments, which can be put in their places afterwards: a
-    /// prediction to write, the dialect's own template, not both `N` words and a dialect that
-    /// numbers its lines (either is numbered anew as the body is copied, not both at once), no
-    /// rotary brakes (whether they lock depends on the steps
-    /// that follow), and no working planes (the frame of the blocks of a 3+2 set-up in one
-    /// depends on them), as where the tool turns while cutting. Whether the 3+2 set-ups stand in
-    /// working planes is known only at the end of the pass: if they do after all, the program is
-    /// written by a pass of its own.
-    fn speculates(&self) -> bool {
-        let how = self.how;
-        let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(how.template.1.as_str());
-        let no_planes = !how.shapes.planes
-            || !matches!(crate::job::plane_kind(self.machine, self.mode, how.dialect), Some(Ok(_)))
-            || self.surveyed.turns_tool;
-        how.prediction.is_some()
-            && !how.three_passes
-            && builtin
-            && !(how.block_numbers && how.dialect.numbered_blocks)
-            && self.machine.axes.iter().all(|a| a.clamp.is_none())
-            && no_planes
-    }
-
     /// The prediction pass alone (the solving pass, without a prediction).
     fn predict(&self, mut predicting: Option<Predicting<'_>>) -> Result<Concluded, Failure> {
         let mut dropped = Dropped;
@@ -578,52 +502,6 @@ impl Passes<'_> {
         }
     }
 
-    /// The writing pass: the stages again, the motion program in its final frame, formatted and
-    /// rendered block by block into a scratch file; the header, which names the lines of the
-    /// worst slowdowns, then the body into `out`.
-    fn write_pass(&self, out: &mut dyn Write, c: Concluded) -> Result<Outcome, Failure> {
-        let (how, progress) = (self.how, self.pass.progress);
-        self.predicted_at.set(self.predicted_at.get().or(Some(self.elapsed())));
-        progress.pass(2 + usize::from(c.repredicted), "writing the program");
-        let mut job = self.pass.job.clone();
-        if c.planes.is_some() {
-            job.frame = postpro_motion::part_zero_frame(self.pass.kin);
-        }
-        let mut motion_options = self.motion_options.clone();
-        motion_options.planes = c.planes;
-        let predicted_time = predicted_time(&c);
-        let Concluded { summary, survey, shape, prediction, annotations, .. } = c;
-        let options = Options { prediction, annotations, ..self.options.clone() };
-        let facts = self.facts(&job, summary.clone());
-        let pass = Pass { job: &job, ..self.pass };
-        let mut scratch = ScratchFile::beside(how.output, "body")?;
-        let mut travel = Vec::new();
-        let mut produce = |sink: &mut dyn MotionSink| -> Result<(), PassError> {
-            let mut checked = self.checked(sink);
-            let shape = Some(shape.clone());
-            pass.run(&motion_options, survey.set_ups.clone(), (&self.surveyed.choice, shape), false, &mut checked)?;
-            travel = checked.finish()?;
-            Ok(())
-        };
-        let template = (how.template.0.as_str(), how.template.1.as_str());
-        postpro_emit::write_program_with(
-            &facts,
-            self.machine,
-            how.dialect,
-            &options,
-            template,
-            out,
-            &mut scratch.file,
-            &mut produce,
-        )
-        .map_err(|e| match e {
-            WriteError::Emit(e) => Failure::Emit(e),
-            WriteError::Produce(e) => Failure::Pass(e),
-        })?;
-        self.travel_warnings(&travel)?;
-        Ok(Outcome { summary, predicted_time, passes: 3 + u8::from(c.repredicted) })
-    }
-
     /// Reports the travel check's warnings (refused with `--strict`).
     fn travel_warnings(&self, travel: &[postpro_motion::Warning]) -> Result<(), Failure> {
         let strict = self.how.setup.strict;
@@ -639,6 +517,140 @@ impl Passes<'_> {
     /// The time since the survey started.
     fn elapsed(&self) -> std::time::Duration {
         self.started.elapsed()
+    }
+}
+
+/// The main job's writing: the passes after the survey with the program asked for and the
+/// emitter's options (the prediction and its comments aside, which the prediction pass finds).
+struct Writer<'p, 'a> {
+    passes: &'p Passes<'a>,
+    program: &'p Program<'a>,
+    options: Options,
+}
+
+impl Writer<'_, '_> {
+    /// The prediction pass, then the program into `out`: written by the prediction pass as it
+    /// goes where the program does not depend on what the pass finds ([`Self::speculates`]),
+    /// else (or where the 3+2 set-ups it finds are written in working planes) by a pass of its own.
+    fn predict_and_write(&self, out: &mut dyn Write, predicting: Option<Predicting<'_>>) -> Result<Outcome, Failure> {
+        let concluded = match predicting {
+            Some(predicting) if self.speculates() => {
+                let mut body = Speculation {
+                    passes: self.passes,
+                    predicting: Some(predicting),
+                    travel: Vec::new(),
+                    passed: None,
+                    concluded: None,
+                };
+                let output = self.program.output;
+                let (mut scratch, mut places) =
+                    (ScratchFile::beside(output, "body")?, ScratchFile::beside(output, "places")?);
+                let facts = self.passes.facts(self.passes.pass.job, postpro_motion::Summary::default());
+                let template = (self.program.template.0.as_str(), self.program.template.1.as_str());
+                let written = postpro_emit::write_program_deferred(
+                    &facts,
+                    self.passes.machine,
+                    self.passes.how.dialect,
+                    &self.options,
+                    template,
+                    out,
+                    (&mut scratch.file, &mut places.file),
+                    &mut body,
+                )
+                .map_err(|e| match e {
+                    WriteError::Emit(e) => Failure::Emit(e),
+                    WriteError::Produce(e) => e,
+                })?;
+                match (written, body.concluded) {
+                    (true, Some(c)) => {
+                        return Ok(Outcome { predicted_time: predicted_time(&c), summary: c.summary, passes: 2 });
+                    }
+                    // Working planes, or comments the body has no place for: the program is
+                    // written by a pass of its own, which the bar makes room for.
+                    (false, Some(c)) => {
+                        self.passes.pass.progress.set_weights(if c.repredicted { &[1, 10, 8, 5] } else { &[1, 10, 5] });
+                        c
+                    }
+                    // Nothing was produced (the options or the template do not allow it).
+                    _ => match body.predicting {
+                        Some(predicting) => self.passes.predict(Some(predicting))?,
+                        None => return Err(Failure::Refused(format!("error: the program was not made; {WRITTEN}\n"))),
+                    },
+                }
+            }
+            predicting => self.passes.predict(predicting)?,
+        };
+        self.write_pass(out, concluded)
+    }
+
+    /// True when the program the writing pass would write is the one the prediction pass makes as
+    /// it goes, but for the slowdowns' comments, which can be put in their places afterwards: a
+    /// prediction to write, the dialect's own template, not both `N` words and a dialect that
+    /// numbers its lines (either is numbered anew as the body is copied, not both at once), no
+    /// rotary brakes (whether they lock depends on the steps
+    /// that follow), and no working planes (the frame of the blocks of a 3+2 set-up in one
+    /// depends on them), as where the tool turns while cutting. Whether the 3+2 set-ups stand in
+    /// working planes is known only at the end of the pass: if they do after all, the program is
+    /// written by a pass of its own.
+    fn speculates(&self) -> bool {
+        let (passes, how, program) = (self.passes, self.passes.how, self.program);
+        let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(program.template.1.as_str());
+        let no_planes = !how.shapes.planes
+            || !matches!(crate::job::plane_kind(passes.machine, passes.mode, how.dialect), Some(Ok(_)))
+            || passes.surveyed.turns_tool;
+        how.prediction.is_some()
+            && !program.three_passes
+            && builtin
+            && !(program.block_numbers && how.dialect.numbered_blocks)
+            && passes.machine.axes.iter().all(|a| a.clamp.is_none())
+            && no_planes
+    }
+
+    /// The writing pass: the stages again, the motion program in its final frame, formatted and
+    /// rendered block by block into a scratch file; the header, which names the lines of the
+    /// worst slowdowns, then the body into `out`.
+    fn write_pass(&self, out: &mut dyn Write, c: Concluded) -> Result<Outcome, Failure> {
+        let (passes, program) = (self.passes, self.program);
+        let progress = passes.pass.progress;
+        passes.predicted_at.set(passes.predicted_at.get().or(Some(passes.elapsed())));
+        progress.pass(2 + usize::from(c.repredicted), "writing the program");
+        let mut job = passes.pass.job.clone();
+        if c.planes.is_some() {
+            job.frame = postpro_motion::part_zero_frame(passes.pass.kin);
+        }
+        let mut motion_options = passes.motion_options.clone();
+        motion_options.planes = c.planes;
+        let predicted_time = predicted_time(&c);
+        let Concluded { summary, survey, shape, prediction, annotations, .. } = c;
+        let options = Options { prediction, annotations, ..self.options.clone() };
+        let facts = passes.facts(&job, summary.clone());
+        let pass = Pass { job: &job, ..passes.pass };
+        let mut scratch = ScratchFile::beside(program.output, "body")?;
+        let mut travel = Vec::new();
+        let mut produce = |sink: &mut dyn MotionSink| -> Result<(), PassError> {
+            let mut checked = passes.checked(sink);
+            let shape = Some(shape.clone());
+            pass.run(&motion_options, survey.set_ups.clone(), (&passes.surveyed.choice, shape), false, &mut checked)?;
+            travel = checked.finish()?;
+            Ok(())
+        };
+        let template = (program.template.0.as_str(), program.template.1.as_str());
+        postpro_emit::write_program_with(
+            &facts,
+            passes.machine,
+            passes.how.dialect,
+            &options,
+            template,
+            out,
+            &mut scratch.file,
+            &mut produce,
+        )
+        .map_err(|e| match e {
+            WriteError::Emit(e) => Failure::Emit(e),
+            WriteError::Produce(e) => Failure::Pass(e),
+        })?;
+        passes.travel_warnings(&travel)?;
+        Ok(Outcome { summary, predicted_time, passes: 3 + u8::from(c.repredicted) })
     }
 }
 
@@ -962,8 +974,8 @@ fn surveyed<R>(
     if let Some(e) = surveyed.graph_error.clone() {
         return Err(render(PassError::Solve(e)));
     }
-    if how.writes() {
-        progress.suspend(|| crate::emit::check_writing(dialect, mode, how.tcp_orientation))?;
+    if let Purpose::Program(program) = &how.purpose {
+        progress.suspend(|| crate::emit::check_writing(dialect, mode, program.tcp_orientation))?;
     }
 
     // 2. The prediction and the survey of the steps; 3. the program. Where nothing in the program
@@ -974,16 +986,6 @@ fn surveyed<R>(
     let mut motion_options = postpro_emit::motion_options(dialect, mode, !how.shapes.linear_arcs);
     motion_options.cycles = !how.shapes.expand_cycles;
     job.work_offset = setup.work_offset.unwrap_or_else(|| dialect.default_work_offset());
-    let options = Options {
-        units: setup.units(&machine),
-        program_name: how.program_name.clone(),
-        source_name: file.name().to_string(),
-        block_numbers: how.block_numbers,
-        tcp_orientation: how.tcp_orientation,
-        insert_verbatim: how.insert_verbatim,
-        prediction: None,
-        annotations: Vec::new(),
-    };
     let passes = Passes {
         how,
         file: &file,
@@ -993,7 +995,6 @@ fn surveyed<R>(
         surveyed: &surveyed,
         pass: Pass { file: &file, read_options: &read_options, kin, policy, job: &job, unknown: &unknown, progress },
         motion_options: &motion_options,
-        options: &options,
         started,
         surveyed_at,
         predicted_at: std::cell::Cell::new(None),
@@ -1009,14 +1010,28 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
     let (how, progress, file, machine) = (passes.how, passes.pass.progress, passes.file, passes.machine);
     let started = passes.started;
     let fail = |message: &str, code: u8| progress.suspend(|| crate::job::fail(message, code));
-    let output = how.output;
-    if passes.speculates() {
+    let Purpose::Program(program) = &how.purpose else {
+        return Err(fail(&format!("error: no program asked for; {WRITTEN}\n"), 1));
+    };
+    let options = Options {
+        units: passes.setup.units(machine),
+        program_name: program.name.clone(),
+        source_name: file.name().to_string(),
+        block_numbers: program.block_numbers,
+        tcp_orientation: program.tcp_orientation,
+        insert_verbatim: program.insert_verbatim,
+        prediction: None,
+        annotations: Vec::new(),
+    };
+    let writer = Writer { passes, program, options };
+    let output = program.output;
+    if writer.speculates() {
         progress.set_weights(&[1, 10]);
     }
     progress.pass(1, if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });
     let mut outcome = None;
     let write = |out: &mut dyn Write| -> Result<(), Failure> {
-        outcome = Some(passes.predict_and_write(out, predicting)?);
+        outcome = Some(writer.predict_and_write(out, predicting)?);
         Ok(())
     };
     let io = |e: std::io::Error| Failure::Emit(EmitError::Io { message: e.to_string() });
@@ -1047,7 +1062,7 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
     let inserts = passes.surveyed.inserts;
     let Outcome { summary, predicted_time, passes } = outcome;
     progress.finish();
-    if how.timing {
+    if program.timing {
         let total = started.elapsed();
         let seconds = total.as_secs_f64();
         eprintln!(
@@ -1068,7 +1083,7 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
         );
     }
     let (inserts, first_insert) = inserts;
-    if let (false, Some(first)) = (how.insert_verbatim, first_insert) {
+    if let (false, Some(first)) = (program.insert_verbatim, first_insert) {
         eprintln!(
             "note: {inserts} INSERT text(s) written as comments (first at {}); `--insert verbatim` passes them to the \
              controller as blocks",
