@@ -210,10 +210,7 @@ impl PassError {
 /// The stages from the reader's items to motion blocks: targets, the policy's second pass, the
 /// linearization (each tool with its own length) and the motion program.
 struct Motions<'a> {
-    tolerance: f64,
-    placing: ToolPlacer<'a>,
-    targets: Vec<Target>,
-    steps: Collected,
+    placing: Placing<'a>,
     stage: Stage<'a>,
     surveyor: Option<Surveyor<'a>>,
     index: usize,
@@ -227,22 +224,20 @@ impl ItemSink for Motions<'_> {
         }
         let i = self.index;
         self.index += 1;
-        self.steps.steps.clear();
-        self.steps.decisions.clear();
-        if matches!(item.kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_)) {
-            self.targets.clear();
-            postpro_kin::targets_of(&item, self.tolerance, &mut self.targets);
-            for t in &self.targets {
-                if let Err(e) = self.placing.push(t, &mut self.steps) {
-                    self.error = Some(PassError::Solve(e));
-                    return;
+        match self.placing.item(&item) {
+            Ok(true) => {
+                if let Some(s) = self.surveyor.as_mut() {
+                    self.placing.steps.steps.iter().for_each(|step| s.step(step));
                 }
             }
-            if let Some(s) = self.surveyor.as_mut() {
-                self.steps.steps.iter().for_each(|step| s.step(step));
+            Ok(false) => {}
+            Err(e) => {
+                self.error = Some(PassError::Solve(e));
+                return;
             }
         }
-        if let Err(e) = self.stage.item(i, &item, &self.steps.steps, &self.steps.decisions) {
+        let steps = &self.placing.steps;
+        if let Err(e) = self.stage.item(i, &item, &steps.steps, &steps.decisions) {
             self.error = Some(PassError::Motion(e));
         }
     }
@@ -262,8 +257,9 @@ impl Motions<'_> {
         if let Some(e) = self.error {
             return Err(e);
         }
-        let summary = self.stage.finish(self.placing.inserted()).map_err(PassError::Motion)?;
-        Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: self.placing.shape() })
+        let placing = self.placing.placing;
+        let summary = self.stage.finish(placing.inserted()).map_err(PassError::Motion)?;
+        Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: placing.shape() })
     }
 }
 
@@ -871,30 +867,63 @@ pub(crate) fn solve(
 
 /// The steps of a pass without the motion program ([`Pass::steps`]).
 struct Steps<'a> {
-    tolerance: f64,
-    placing: ToolPlacer<'a>,
-    targets: Vec<Target>,
-    steps: Collected,
+    placing: Placing<'a>,
     each: &'a mut dyn FnMut(&Collected),
     error: Option<PassError>,
 }
 
 impl ItemSink for Steps<'_> {
     fn push(&mut self, item: Item) {
-        if self.error.is_some() || !matches!(item.kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_)) {
+        if self.error.is_some() {
             return;
         }
+        match self.placing.item(&item) {
+            Ok(true) => (self.each)(&self.placing.steps),
+            Ok(false) => {}
+            Err(e) => self.error = Some(PassError::Solve(e)),
+        }
+    }
+}
+
+/// The policy's placing of a pass: each CL item's targets, their steps and decisions.
+struct Placing<'a> {
+    tolerance: f64,
+    placing: ToolPlacer<'a>,
+    targets: Vec<Target>,
+    /// The last item's.
+    steps: Collected,
+}
+
+impl<'a> Placing<'a> {
+    /// With the policy's `choice` (its first pass over the whole path) and `linearizer`.
+    fn new(pass: &Pass<'a>, choice: &postpro_kin::Choice, linearizer: Linearizer) -> Placing<'a> {
+        let (kin, policy) = (pass.kin, pass.policy);
+        Placing {
+            tolerance: policy.linearization_tolerance,
+            placing: ToolPlacer::new(
+                Placer::new(kin, policy, None, choice.clone()),
+                linearizer,
+                Stretches::starting(kin, pass.job.stretch_starts()),
+            ),
+            targets: Vec::new(),
+            steps: Collected::default(),
+        }
+    }
+
+    /// Places `item`'s targets: true, its steps and decisions in [`Self::steps`], where it moves
+    /// the tool (else they are empty).
+    fn item(&mut self, item: &Item) -> Result<bool, SolveError> {
         self.steps.steps.clear();
         self.steps.decisions.clear();
-        self.targets.clear();
-        postpro_kin::targets_of(&item, self.tolerance, &mut self.targets);
-        for t in &self.targets {
-            if let Err(e) = self.placing.push(t, &mut self.steps) {
-                self.error = Some(PassError::Solve(e));
-                return;
-            }
+        if !matches!(item.kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_)) {
+            return Ok(false);
         }
-        (self.each)(&self.steps);
+        self.targets.clear();
+        postpro_kin::targets_of(item, self.tolerance, &mut self.targets);
+        for t in &self.targets {
+            self.placing.push(t, &mut self.steps)?;
+        }
+        Ok(true)
     }
 }
 
@@ -1214,14 +1243,7 @@ impl Pass<'_> {
             None => Linearizer::recording(policy),
         };
         let mut motions = Motions {
-            tolerance: policy.linearization_tolerance,
-            placing: ToolPlacer::new(
-                Placer::new(kin, policy, None, choice.clone()),
-                linearizer,
-                Stretches::starting(kin, self.job.stretch_starts()),
-            ),
-            targets: Vec::new(),
-            steps: Collected::default(),
+            placing: Placing::new(self, choice, linearizer),
             stage: Stage::new(kin, options, self.job, self.unknown.clone(), set_ups, sink),
             surveyor: surveying.then(|| Surveyor::new(kin)),
             index: 0,
@@ -1235,24 +1257,13 @@ impl Pass<'_> {
     /// Reads the CL file through the policy's second pass (`choice`) and the linearization,
     /// each item's steps to `each`; returns the points linearization added.
     fn steps(&self, choice: &postpro_kin::Choice, each: &mut dyn FnMut(&Collected)) -> Result<usize, PassError> {
-        let (kin, policy) = (self.kin, self.policy);
-        let mut steps = Steps {
-            tolerance: policy.linearization_tolerance,
-            placing: ToolPlacer::new(
-                Placer::new(kin, policy, None, choice.clone()),
-                Linearizer::recording(policy),
-                Stretches::starting(kin, self.job.stretch_starts()),
-            ),
-            targets: Vec::new(),
-            steps: Collected::default(),
-            each,
-            error: None,
-        };
+        let linearizer = Linearizer::recording(self.policy);
+        let mut steps = Steps { placing: Placing::new(self, choice, linearizer), each, error: None };
         let mut counting = Counting { sink: &mut steps, progress: self.progress };
         self.file.read_into_with(self.read_options, &mut counting).map_err(PassError::Read)?;
         match steps.error {
             Some(e) => Err(e),
-            None => Ok(steps.placing.inserted()),
+            None => Ok(steps.placing.placing.inserted()),
         }
     }
 }
