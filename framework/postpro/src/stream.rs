@@ -477,12 +477,21 @@ impl Passes<'_> {
         shape: Shape,
         sink: &mut dyn MotionSink,
     ) -> Result<Passed, PassError> {
-        let mut job = self.pass.job.clone();
-        job.frame = postpro_motion::part_zero_frame(self.pass.kin);
-        let mut motion_options = self.motion_options.clone();
-        motion_options.planes = Some(kind);
+        let (job, motion_options) = self.in_planes(Some(kind));
         let pass = Pass { job: &job, ..self.pass };
         pass.run(&motion_options, survey.set_ups.clone(), (&self.surveyed.choice, Some(shape)), false, sink)
+    }
+
+    /// The job and the motion program's options with the 3+2 set-ups in working planes of
+    /// `planes` (in the part zero's frame), or as the prediction pass has them.
+    fn in_planes(&self, planes: Option<postpro_motion::PlaneKind>) -> (postpro_motion::Job, postpro_motion::Options) {
+        let mut job = self.pass.job.clone();
+        if planes.is_some() {
+            job.frame = postpro_motion::part_zero_frame(self.pass.kin);
+        }
+        let mut motion_options = self.motion_options.clone();
+        motion_options.planes = planes;
+        (job, motion_options)
     }
 
     /// The motion program's facts for the header, with `job` and `summary`.
@@ -610,12 +619,7 @@ impl Writer<'_, '_> {
         let progress = passes.pass.progress;
         passes.predicted_at.set(passes.predicted_at.get().or(Some(passes.elapsed())));
         progress.pass(2 + usize::from(c.repredicted), "writing the program");
-        let mut job = passes.pass.job.clone();
-        if c.planes.is_some() {
-            job.frame = postpro_motion::part_zero_frame(passes.pass.kin);
-        }
-        let mut motion_options = passes.motion_options.clone();
-        motion_options.planes = c.planes;
+        let (job, motion_options) = passes.in_planes(c.planes);
         let predicted_time = predicted_time(&c);
         let Concluded { summary, survey, shape, prediction, annotations, .. } = c;
         let options = Options { prediction, annotations, ..self.options.clone() };
