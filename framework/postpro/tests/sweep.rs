@@ -10,8 +10,13 @@
 //! - Never a panic: the streamed look-ahead once indexed a piece it had forgotten on four real
 //!   files, and only on one machine; the other tests post each file on the machine it fits.
 //!
-//! About 1 900 runs: too many for the unoptimised build, so the test is `#[ignore]`d there and
-//! `.ci/run` runs it on the release build:
+//! Then the same files on the three real machines with the options that change how the program
+//! is written (`N` words, other dialects, axis values for 3+2, linear arcs and expanded cycles,
+//! inch, verbatim inserts, TCP vectors), and through `predict` and `solve`, which stream the file
+//! as the main job does.
+//!
+//! About 3 000 runs: too many for the unoptimised build, so the tests are `#[ignore]`d there and
+//! `.ci/run` runs them on the release build:
 //! `cargo test --release -p postpro --test sweep -- --ignored`.
 
 mod programs;
@@ -42,14 +47,15 @@ fn machines() -> Vec<String> {
     registry.entries().iter().map(|e| e.machine.name.clone()).collect()
 }
 
-/// One run: what went wrong with how it ended, if anything.
-fn run(file: &Path, machine: &str, mode: &str, out: &Path) -> Option<String> {
+/// One run of the main job on `file` with `args`, the program to `out`: what went wrong with how
+/// it ended, if anything.
+fn run(file: &Path, args: &[&str], out: &Path) -> Option<String> {
     let out_text = out.to_str().expect("a UTF-8 path");
-    let file_text = file.to_str().expect("a UTF-8 path");
-    let args = ["--machine", machine, "--mode", mode, file_text, "-o", out_text];
-    let o = postpro(&args, Path::new("."));
+    let mut all = vec![file.to_str().expect("a UTF-8 path"), "-o", out_text];
+    all.extend_from_slice(args);
+    let o = postpro(&all, Path::new("."));
     let said = stderr(&o);
-    let what = format!("postpro {}", args.join(" "));
+    let what = format!("postpro {}", all.join(" "));
     if said.contains("panicked") {
         return Some(format!("{what}: a panic\n{said}"));
     }
@@ -84,7 +90,7 @@ fn every_file_on_every_machine_in_every_mode_posts_or_says_why() {
     let dir = out_dir("sweep");
     let failures: Vec<String> = on_two_threads(&cases, |&(k, file, machine, mode)| {
         let out = dir.join(format!("{k}.nc"));
-        let failure = run(file, machine, mode, &out);
+        let failure = run(file, &["--machine", machine, "--mode", mode], &out);
         let _ = std::fs::remove_file(&out);
         failure
     })
@@ -92,4 +98,61 @@ fn every_file_on_every_machine_in_every_mode_posts_or_says_why() {
     .flatten()
     .collect();
     assert!(failures.is_empty(), "{} of {} runs ended badly:\n{}", failures.len(), cases.len(), failures.join("\n"));
+}
+
+/// The options that change how the program is written, and the commands that stream the file as
+/// the main job does (`predict` and `solve` print to standard output and write no file).
+const OPTIONS: &[&[&str]] = &[
+    &["--block-numbers"],
+    &["--dialect", "heidenhain"],
+    &["--dialect", "linuxcnc", "--block-numbers"],
+    &["--plane-mode", "joints", "--mode", "inverse-time"],
+    &["--arcs", "linear", "--cycles", "expand", "--units", "inch"],
+    &["--insert", "verbatim", "--block-numbers", "--mode", "tcp", "--tcp-orientation", "vectors"],
+];
+
+/// Every real file and example on the three real machines with the options of [`OPTIONS`], and
+/// through `predict` and `solve`: a whole program or an error and no file, and never a panic.
+#[test]
+#[ignore = "thousands of runs: run on the release build (`.ci/run` does)"]
+fn every_file_posts_or_says_why_with_the_writing_options_and_through_predict_and_solve() {
+    let mut files: Vec<PathBuf> = tests::real_cl_files().into_iter().map(|(_, path)| path).collect();
+    files.extend(examples());
+    let machines = ["maho600e", "mikron-ucp710", "haas-umc750"];
+    let mut cases: Vec<(usize, &PathBuf, &str, Option<&[&str]>)> = Vec::new();
+    for file in &files {
+        for machine in machines {
+            for options in OPTIONS {
+                cases.push((cases.len(), file, machine, Some(*options)));
+            }
+            cases.push((cases.len(), file, machine, None));
+        }
+    }
+    let dir = out_dir("sweep-options");
+    let failures: Vec<String> = on_two_threads(&cases, |&(k, file, machine, options)| match options {
+        Some(options) => {
+            let out = dir.join(format!("{k}.nc"));
+            let mut args = vec!["--machine", machine];
+            args.extend_from_slice(options);
+            let failure = run(file, &args, &out);
+            let _ = std::fs::remove_file(&out);
+            failure
+        }
+        None => ["predict", "solve"].into_iter().find_map(|command| {
+            let file = file.to_str().expect("a UTF-8 path");
+            let o = postpro(&[command, file, "--machine", machine], Path::new("."));
+            let said = stderr(&o);
+            let ended_well = match o.status.code() {
+                Some(0) => !o.stdout.is_empty(),
+                Some(1) => o.stdout.is_empty() && (said.contains("error") || said.contains('×')),
+                _ => false,
+            };
+            (!ended_well || said.contains("panicked"))
+                .then(|| format!("postpro {command} {file} --machine {machine}: ended with {}\n{said}", o.status))
+        }),
+    })
+    .into_iter()
+    .flatten()
+    .collect();
+    assert!(failures.is_empty(), "{} of {} cases ended badly:\n{}", failures.len(), cases.len(), failures.join("\n"));
 }
