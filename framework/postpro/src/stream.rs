@@ -1,4 +1,4 @@
-//! The main job streamed: the CL file is read two or three times, a window at a time
+//! The main job streamed: the CL file is read two to four times, a window at a time
 //! ([`ClFile`]), and nothing proportional to its length is held but a few bits per CL point.
 //!
 //! 1. **Survey**: the reader's items, their targets and the policy's first pass (the branch
