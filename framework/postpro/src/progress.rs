@@ -203,6 +203,24 @@ mod tests {
     }
 
     #[test]
+    fn a_pass_repeated_makes_room_and_the_passes_after_it_move_on() {
+        let screen = Screen::default();
+        let target = ProgressDrawTarget::term_like(Box::new(screen.clone()));
+        let progress = Progress::new(&[1, 2, 1], Some(target), Duration::ZERO);
+        progress.set_len(100);
+        progress.pass(1, "predicting the feed");
+        // The blocks in working planes: the prediction once more, as long as the first.
+        progress.repeat_pass(1);
+        progress.pass(2, "predicting in the planes");
+        progress.pass(3, "writing the program");
+        let drawn = screen.text();
+        // Weights 1, 2, 2, 1: the second prediction starts at 3/6, the writing at 5/6.
+        assert!(drawn.contains("predicting in the planes") && drawn.contains(" 50%"), "{drawn:?}");
+        assert!(drawn.contains("writing the program") && drawn.contains(" 83%"), "{drawn:?}");
+        progress.finish();
+    }
+
+    #[test]
     fn a_short_run_and_a_run_without_a_terminal_draw_nothing() {
         let screen = Screen::default();
         let target = ProgressDrawTarget::term_like(Box::new(screen.clone()));
