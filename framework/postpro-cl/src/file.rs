@@ -161,9 +161,9 @@ impl ClFile {
         Locate::location(self, offset)
     }
 
-    /// The lines of offsets asked for in increasing order (a pass's items, each step of a
-    /// solution), by one more reading of the file from its start: each look-up reads on from the
-    /// last, where [`ClFile::line_col`] reads a stretch of the file every time.
+    /// The lines and columns of offsets asked for in increasing order (each step and decision of
+    /// a solution), by one more reading of the file from its start: each look-up reads on from
+    /// the last, where [`ClFile::line_col`] reads a stretch of the file every time.
     pub fn lines(&self) -> Result<Lines, Error> {
         let io = |source| Error::Io { path: self.name.clone(), source };
         let file = std::fs::File::open(&self.path).map_err(io)?;
@@ -171,7 +171,7 @@ impl ClFile {
             return Err(Error::Changed { path: self.name.clone() });
         }
         let reader = std::io::BufReader::with_capacity(BLOCK, file);
-        Ok(Lines { reader, latin1: self.latin1, len: self.len, text: 0, line: 1, after_cr: false })
+        Ok(Lines { reader, latin1: self.latin1, len: self.len, text: 0, line: 1, column: 0, after_cr: false })
     }
 
     /// The checkpoints, found by reading the file once (`None` if it cannot be read).
@@ -290,25 +290,27 @@ impl ClFile {
     }
 }
 
-/// The line of each offset of a [`ClFile`]'s text, asked for in increasing order
-/// ([`ClFile::lines`]): the lines [`ClFile::line_col`] gives (a line ends at `\n`, `\r\n` or a
-/// lone `\r`).
+/// The line and column of each offset of a [`ClFile`]'s text, asked for in increasing order
+/// ([`ClFile::lines`]): what [`ClFile::line_col`] gives (a line ends at `\n`, `\r\n` or a lone
+/// `\r`; a column counts characters).
 #[derive(Debug)]
 pub struct Lines {
     reader: std::io::BufReader<std::fs::File>,
     latin1: bool,
     len: usize,
-    /// The offset of the text read up to, and its line.
+    /// The offset of the text read up to, its line, and the characters of that line before it.
     text: usize,
     line: usize,
+    column: usize,
     /// The last byte read was a `\r`: a line starts after it unless a `\n` follows.
     after_cr: bool,
 }
 
 impl Lines {
-    /// The line (1-based) of `offset`, which is not below the last one asked for (an offset
-    /// below it gets the line of the last one); the end of the text for an offset beyond it.
-    pub fn line(&mut self, offset: usize) -> std::io::Result<usize> {
+    /// The line and column (1-based) of `offset`, which is not below the last one asked for (an
+    /// offset below it gets the place of the last one); the end of the text for an offset beyond
+    /// it.
+    pub fn line_col(&mut self, offset: usize) -> std::io::Result<LineCol> {
         use std::io::BufRead;
         let offset = offset.min(self.len);
         while self.text < offset {
@@ -324,11 +326,14 @@ impl Lines {
                 used += 1;
                 // A lone `\r` ended a line: the byte after it starts one.
                 if self.after_cr && b != b'\n' {
-                    self.line += 1;
+                    (self.line, self.column) = (self.line + 1, 0);
                 }
                 self.after_cr = b == b'\r';
                 if b == b'\n' {
-                    self.line += 1;
+                    (self.line, self.column) = (self.line + 1, 0);
+                } else if self.latin1 || b & 0xC0 != 0x80 {
+                    // A character starts here (not a UTF-8 continuation byte).
+                    self.column += 1;
                 }
                 self.text += if self.latin1 && b >= 0x80 { 2 } else { 1 };
             }
@@ -338,10 +343,10 @@ impl Lines {
         if self.after_cr {
             let next = self.reader.fill_buf()?.first().copied();
             if next != Some(b'\n') {
-                return Ok(self.line + 1);
+                return Ok(LineCol { line: self.line + 1, column: 1 });
             }
         }
-        Ok(self.line)
+        Ok(LineCol { line: self.line, column: self.column + 1 })
     }
 }
 

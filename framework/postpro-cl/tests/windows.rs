@@ -1,6 +1,6 @@
 //! A CL file read in windows ([`ClFile`], what the main job reads) reads exactly as the whole
 //! text ([`Source`]) does: the same items with the same spans, the same diagnostics and summary,
-//! and the same line and column for every offset (also the lines of offsets asked for in order,
+//! and the same line and column for every offset (also those of offsets asked for in order,
 //! [`ClFile::lines`]). Windows are made small (a few hundred bytes
 //! to a few KiB) so that records, `$` continuations, comments, CRLF pairs and multi-byte
 //! characters fall across their boundaries, and records longer than a window make it grow.
@@ -93,16 +93,16 @@ fn assert_windows_read_as_whole(path: &Path, windows: &[usize]) {
             );
         }
     }
-    // The lines of offsets in increasing order, read on from the last: every character of the
-    // first 4 KiB (line ends of every kind), then a sample, then past the end.
+    // The lines and columns of offsets in increasing order, read on from the last: every
+    // character of the first 4 KiB (line ends of every kind), then a sample, then past the end.
     let file = ClFile::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = file.lines().unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let text = source.text();
     let first = (0..=len.min(4096)).filter(|&o| text.is_char_boundary(o));
     let sample = (4097..=len).step_by((len / 97).max(1)).filter(|&o| text.is_char_boundary(o));
     for offset in first.chain(sample).chain([len, len + 10]) {
-        let line = lines.line(offset).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        assert_eq!(line, source.line_col(offset).line, "{}: the line of offset {offset}, in order", path.display());
+        let found = lines.line_col(offset).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert_eq!(found, source.line_col(offset), "{}: line and column of offset {offset}, in order", path.display());
     }
 }
 

@@ -12,7 +12,6 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use postpro_cl::Locate;
 use postpro_kin::{Collected, StepKind};
 use postpro_machine::model::{AxisKind, BranchPreference, Machine, OnDiscontinuity, PathChoice, SolverKind};
 use postpro_machine::{Origin, Registry};
@@ -247,14 +246,15 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
     };
     let mut seen = Seen::new(&chosen.machine);
     let mut failed = None;
+    // The rows, or what the summary says: never both.
     let mut each = |collected: &Collected, file: &postpro_cl::ClFile, frame: &WorkFrame| {
         let machine = &chosen.machine;
-        seen.steps(machine, collected, file, frame);
-        if let Some(rows) = rows.as_mut()
-            && failed.is_none()
-            && let Err(e) = rows.push(machine, collected, file, frame)
-        {
-            failed = Some(e);
+        let taken = match rows.as_mut() {
+            Some(rows) => rows.push(machine, collected, file, frame),
+            None => seen.steps(machine, collected, file, frame),
+        };
+        if let Err(e) = taken {
+            failed.get_or_insert(e);
         }
     };
     let solution = match crate::stream::solve(&request, &mut each) {
@@ -262,7 +262,8 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
         Err(code) => return code,
     };
     if let Some(e) = failed {
-        return fail(&format!("error: cannot write the scratch file: {e}\n"), 1);
+        let what = if rows.is_some() { "write the scratch file" } else { "read the CL file again" };
+        return fail(&format!("error: cannot {what}: {e}\n"), 1);
     }
     match rows {
         Some(rows) => rows.print(),
@@ -279,16 +280,24 @@ struct Seen {
     ranges: Vec<(f64, f64)>,
     /// Each decision: where, and what.
     decisions: Vec<String>,
+    /// Where the decisions are, read on as they come (opened with the first).
+    lines: Option<postpro_cl::Lines>,
 }
 
 impl Seen {
     fn new(machine: &Machine) -> Seen {
         let ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); machine.axes.len()];
-        Seen { positions: 0, cl: 0, ranges, decisions: Vec::new() }
+        Seen { positions: 0, cl: 0, ranges, decisions: Vec::new(), lines: None }
     }
 
     /// Takes in one CL item's steps and decisions.
-    fn steps(&mut self, machine: &Machine, collected: &Collected, file: &dyn Locate, frame: &WorkFrame) {
+    fn steps(
+        &mut self,
+        machine: &Machine,
+        collected: &Collected,
+        file: &postpro_cl::ClFile,
+        frame: &WorkFrame,
+    ) -> std::io::Result<()> {
         for s in &collected.steps {
             self.positions += 1;
             self.cl += usize::from(matches!(s.kind, StepKind::Cl | StepKind::Reengage));
@@ -299,8 +308,21 @@ impl Seen {
             }
         }
         for d in &collected.decisions {
-            self.decisions.push(format!("  {}: {}", file.location(d.span.start as usize), d.decision));
+            let at = lines_of(&mut self.lines, file)?.line_col(d.span.start as usize)?;
+            self.decisions.push(format!("  {}:{}:{}: {}", file.name(), at.line, at.column, d.decision));
         }
+        Ok(())
+    }
+}
+
+/// The line finder in `lines`, opened on `file` the first time.
+fn lines_of<'l>(
+    lines: &'l mut Option<postpro_cl::Lines>,
+    file: &postpro_cl::ClFile,
+) -> std::io::Result<&'l mut postpro_cl::Lines> {
+    match lines {
+        Some(lines) => Ok(lines),
+        None => Ok(lines.insert(file.lines().map_err(std::io::Error::other)?)),
     }
 }
 
@@ -337,14 +359,8 @@ impl Rows {
         file: &postpro_cl::ClFile,
         frame: &WorkFrame,
     ) -> std::io::Result<()> {
-        if self.lines.is_none() {
-            self.lines = Some(file.lines().map_err(std::io::Error::other)?);
-        }
         for s in &collected.steps {
-            let line = match self.lines.as_mut() {
-                Some(lines) => lines.line(s.span.start as usize)?,
-                None => 0,
-            };
+            let line = lines_of(&mut self.lines, file)?.line_col(s.span.start as usize)?.line;
             let joints = frame.apply(&s.joints);
             let _ = write!(self.text, "{},{line},{},{}", self.index, kind(s.kind), u8::from(s.rapid));
             self.index += 1;
