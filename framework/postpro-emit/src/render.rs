@@ -462,7 +462,7 @@ pub fn write_program_deferred<E>(
     let mut numbered = NumberedLines::new(&mut *out, &mut numbering, dialect);
     let copied = {
         let into: &mut dyn Write = if dialect.numbered_blocks { &mut numbered } else { &mut *numbered.out };
-        let renumber = options.block_numbers.then(|| Renumber { dialect, shift: 0, line: Vec::new(), error: None });
+        let renumber = options.block_numbers.then(|| Renumber::new(dialect));
         let mut body = Inserting { out: into, at: 0, insertions, renumber };
         let copied = scratch.replay(&mut body).and_then(|()| body.finish());
         if let Some(e) = body.renumber.and_then(|r| r.error) {
@@ -521,7 +521,7 @@ fn environment<'s>(name: &'s str, source: &'s str) -> Result<Environment<'s>, Em
 
 /// Where the annotations of the steps up to `step` stand in a body written before they are
 /// known: before the byte `offset` of the body, after its first `lines` lines and `blocks`
-/// numbered blocks (where the dialect numbers them).
+/// numbered blocks (the lines a dialect numbers, or the blocks with an `N` word).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Place {
     step: u64,
@@ -665,6 +665,13 @@ struct Renumber<'a> {
     line: Vec<u8>,
     /// Why it stopped (a line too long).
     error: Option<EmitError>,
+}
+
+impl Renumber<'_> {
+    /// Before the first comment put in, for the lines of `dialect`.
+    fn new(dialect: &Dialect) -> Renumber<'_> {
+        Renumber { dialect, shift: 0, line: Vec::new(), error: None }
+    }
 }
 
 impl Inserting<'_> {
@@ -1122,23 +1129,27 @@ fn check_length(line: &str, dialect: &Dialect) -> Result<(), EmitError> {
 mod tests {
     use super::*;
 
+    /// `body` copied in chunks of `chunk` bytes with `insertions` (renumbered in `dialect`'s
+    /// lines, if given).
+    fn copied(body: &str, insertions: &[(u64, &str)], renumber: Option<&Dialect>, chunk: usize) -> String {
+        let mut out = Vec::new();
+        let queue = insertions.iter().map(|&(at, t)| (at, t.to_string())).collect();
+        let renumber = renumber.map(Renumber::new);
+        let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue, renumber };
+        for piece in body.as_bytes().chunks(chunk) {
+            inserting.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
+        }
+        inserting.finish().unwrap_or_else(|e| panic!("{e}"));
+        String::from_utf8_lossy(&out).into_owned()
+    }
+
     #[test]
     fn texts_go_in_before_their_offsets_whatever_the_chunks_the_body_comes_in() {
-        let body = b"G1 X1\nG1 X2\nG1 X3\n";
+        let body = "G1 X1\nG1 X2\nG1 X3\n";
         let insertions = [(0, "(a)\n"), (6, "(b)\n"), (6, "(c)\n"), (18, "(d)\n"), (u64::MAX, "(e)\n")];
         for chunk in [1, 5, 6, 7, 64] {
-            let mut out = Vec::new();
-            let queue = insertions.iter().map(|&(at, t)| (at, t.to_string())).collect();
-            let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue, renumber: None };
-            for piece in body.chunks(chunk) {
-                inserting.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
-            }
-            inserting.finish().unwrap_or_else(|e| panic!("{e}"));
-            assert_eq!(
-                String::from_utf8_lossy(&out),
-                "(a)\nG1 X1\n(b)\n(c)\nG1 X2\nG1 X3\n(d)\n(e)\n",
-                "chunks of {chunk}"
-            );
+            let out = copied(body, &insertions, None, chunk);
+            assert_eq!(out, "(a)\nG1 X1\n(b)\n(c)\nG1 X2\nG1 X3\n(d)\n(e)\n", "chunks of {chunk}");
         }
     }
 
@@ -1150,16 +1161,8 @@ mod tests {
         let body = "N10 G1 X1\nN20 G1 X2\nN30 T2 M6\nN31 G43 H2\n%\nN40 G1 X3";
         let insertions = [(10, "N20 (a)\n"), (20, "N40 (b)\n"), (20, "N50 (c)\n"), (u64::MAX, "N90 (d)\n")];
         for chunk in [1, 4, 10, 100] {
-            let mut out = Vec::new();
-            let queue = insertions.iter().map(|&(at, t)| (at, t.to_string())).collect();
-            let renumber = Some(Renumber { dialect, shift: 0, line: Vec::new(), error: None });
-            let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue, renumber };
-            for piece in body.as_bytes().chunks(chunk) {
-                inserting.write_all(piece).unwrap_or_else(|e| panic!("{e}"));
-            }
-            inserting.finish().unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(
-                String::from_utf8_lossy(&out),
+                copied(body, &insertions, Some(dialect), chunk),
                 "N10 G1 X1\nN20 (a)\nN30 G1 X2\nN40 (b)\nN50 (c)\nN60 T2 M6\nN61 G43 H2\n%\nN70 G1 X3N90 (d)\n",
                 "chunks of {chunk}"
             );
@@ -1172,7 +1175,7 @@ mod tests {
         dialect.max_line = 10;
         let mut out = Vec::new();
         let queue = [(0, "N10 (a)\n".to_string())].into();
-        let renumber = Some(Renumber { dialect: &dialect, shift: 0, line: Vec::new(), error: None });
+        let renumber = Some(Renumber::new(&dialect));
         let mut inserting = Inserting { out: &mut out, at: 0, insertions: queue, renumber };
         assert!(inserting.write_all(b"N90 G1 X12\n").is_err());
         let error = inserting.renumber.and_then(|r| r.error).map(|e| e.to_string()).unwrap_or_default();
