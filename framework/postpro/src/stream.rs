@@ -811,13 +811,18 @@ impl Passes<'_> {
             operations: p.predictor.operations(),
         };
         let marks = p.marks.finish();
-        let line = |span: Span| file.line_col(span.start as usize).line;
+        // The marks and the notes each in program order: their lines by reading on.
+        let lines_of = |spans: &mut dyn Iterator<Item = Span>| -> Result<Vec<usize>, ExitCode> {
+            let cannot = |e: &dyn std::fmt::Display| fail(&format!("error: cannot read {} again: {e}\n", file.name()));
+            let mut lines = file.lines().map_err(|e| cannot(&e))?;
+            spans.map(|span| lines.line_col(span.start as usize).map(|at| at.line).map_err(|e| cannot(&e))).collect()
+        };
         Ok(Streamed {
             machine: self.machine.clone(),
             mode: self.mode,
             blocks: p.blocks.len(),
-            mark_lines: marks.iter().map(|m| line(m.span)).collect(),
-            note_lines: prediction.notes.iter().map(|n| line(n.span)).collect(),
+            mark_lines: lines_of(&mut marks.iter().map(|m| m.span))?,
+            note_lines: lines_of(&mut prediction.notes.iter().map(|n| n.span))?,
             prediction,
             marks,
             name: file.name().to_string(),
