@@ -365,6 +365,8 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     if let Err(message) = write_all(&exports) {
         return fail(&message, 1);
     }
+    let mark_lines: Vec<usize> = marks.iter().map(|m| line(&job, prediction.blocks[m.first].step)).collect();
+    let note_lines: Vec<usize> = prediction.notes.iter().map(|n| line(&job, n.step)).collect();
     let figures = Figures {
         name: job.source.name(),
         machine,
@@ -373,8 +375,8 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         blocks: prediction.blocks.len(),
         prediction: &prediction,
         marks: &marks,
-        mark_lines: marks.iter().map(|m| line(&job, prediction.blocks[m.first].step)).collect(),
-        note_lines: prediction.notes.iter().map(|n| line(&job, n.step)).collect(),
+        mark_lines: &mark_lines,
+        note_lines: &note_lines,
         args,
         every_block: Some(&job),
     };
@@ -414,8 +416,8 @@ fn streamed(
         blocks: s.blocks,
         prediction: &s.prediction,
         marks: &s.marks,
-        mark_lines: s.mark_lines.clone(),
-        note_lines: s.note_lines.clone(),
+        mark_lines: &s.mark_lines,
+        note_lines: &s.note_lines,
         args,
         every_block: None,
     };
@@ -448,8 +450,8 @@ struct Figures<'a> {
     prediction: &'a Prediction,
     marks: &'a [Mark],
     /// The CL line of each mark and of each note.
-    mark_lines: Vec<usize>,
-    note_lines: Vec<usize>,
+    mark_lines: &'a [usize],
+    note_lines: &'a [usize],
     args: &'a PredictArgs,
     /// The job whose blocks `--blocks` lists (the whole-path prediction).
     every_block: Option<&'a Job>,
@@ -581,7 +583,7 @@ fn table(figures: &Figures<'_>) -> String {
             );
         }
     }
-    for (note, line) in prediction.notes.iter().zip(&figures.note_lines) {
+    for (note, line) in prediction.notes.iter().zip(figures.note_lines) {
         let _ = writeln!(out, "note: line {line}: {}", note.text);
     }
     if let (true, Some(job)) = (args.blocks, figures.every_block) {
