@@ -428,17 +428,11 @@ impl Passes<'_> {
                 "error: {warnings} warning(s), and --strict makes them errors; {WRITTEN}\n"
             )));
         }
-        let planes = if how.shapes.planes {
-            crate::job::planes_for(self.machine, self.mode, how.dialect, &survey)
-        } else {
-            None
-        };
+        let planes = self.planes_of(&survey);
         // In working planes the set-ups' blocks differ: the prediction is made again on them, as
         // the program is written.
         let (predicting, repredicted) = match (planes, predicting) {
             (Some(kind), Some(_)) => {
-                progress.repeat_pass(1);
-                progress.pass(2, "predicting in the planes");
                 let mut again = self.predicting();
                 if let Some(p) = again.as_mut() {
                     self.planes_pass(kind, &survey, shape.clone(), p).map_err(Failure::Pass)?;
@@ -467,9 +461,16 @@ impl Passes<'_> {
         Ok(Concluded { summary, survey, shape, planes, prediction, annotations, repredicted })
     }
 
-    /// A pass of the stages with the 3+2 set-ups in working planes of `kind` (their frame), the
-    /// set-ups and linearization the prediction pass found (`survey`, `shape`), its blocks to
-    /// `sink`.
+    /// The working planes the 3+2 set-ups the prediction pass surveyed (`survey`) are written in,
+    /// if the request asks for planes and they stand in any.
+    fn planes_of(&self, survey: &Survey) -> Option<postpro_motion::PlaneKind> {
+        let how = self.how;
+        how.shapes.planes.then(|| crate::job::planes_for(self.machine, self.mode, how.dialect, survey)).flatten()
+    }
+
+    /// A pass of its own after the prediction pass (the bar makes room for it) with the 3+2
+    /// set-ups in working planes of `kind` (their frame), the set-ups and linearization the
+    /// prediction pass found (`survey`, `shape`), its blocks to `sink`.
     fn planes_pass(
         &self,
         kind: postpro_motion::PlaneKind,
@@ -477,6 +478,8 @@ impl Passes<'_> {
         shape: Shape,
         sink: &mut dyn MotionSink,
     ) -> Result<Passed, PassError> {
+        self.pass.progress.repeat_pass(1);
+        self.pass.progress.pass(2, "predicting in the planes");
         let (job, motion_options) = self.in_planes(Some(kind));
         let pass = Pass { job: &job, ..self.pass };
         pass.run(&motion_options, survey.set_ups.clone(), (&self.surveyed.choice, Some(shape)), false, sink)
@@ -770,20 +773,12 @@ impl Passes<'_> {
             Failure::Refused(message) => fail(&message),
         };
         let mut checked = self.checked(&mut p);
-        let passed = self.prediction_pass(&mut checked).map_err(failed)?;
+        let mut passed = self.prediction_pass(&mut checked).map_err(failed)?;
         let mut travel = checked.finish().map_err(|e| (self.render)(e))?;
-        let planes = if self.how.shapes.planes {
-            let survey = passed.survey.clone().unwrap_or_default();
-            crate::job::planes_for(self.machine, self.mode, self.how.dialect, &survey)
-        } else {
-            None
-        };
-        let passed = match planes {
+        let survey = passed.survey.take().unwrap_or_default();
+        let passed = match self.planes_of(&survey) {
             Some(kind) => {
                 // The blocks in the working planes' frame: the prediction again, on them.
-                progress.repeat_pass(1);
-                progress.pass(2, "predicting in the planes");
-                let survey = passed.survey.unwrap_or_default();
                 p = self.predicting().ok_or_else(|| fail("error: no prediction asked for\n"))?;
                 let mut checked = self.checked(&mut p);
                 let again = self.planes_pass(kind, &survey, passed.shape, &mut checked);
