@@ -4,12 +4,13 @@
 //! within them; the rotations postpro adds are checked here). Linear axes are written in the work
 //! offset's frame: their machine coordinates are known only when the set-up says where the work
 //! offset is (`work_offset_at`); then each is checked, else each axis's span must fit its travel
-//! (a warning: the part may still not fit where the shop clamps it, but no offset could make it).
+//! (a warning: no work offset could make a wider span fit; where the CL file says inches, the
+//! warning asks whether its values are millimetres, as Creo's often are).
 //! The moves postpro adds at the clearance are not checked for their linear values: the clearance
 //! is the machine definition's, already checked.
 
 use nalgebra::Point3;
-use postpro_cl::Span;
+use postpro_cl::{LengthUnit, Span, UnitsInfo, UnitsOrigin};
 use postpro_kin::StepKind;
 use postpro_machine::model::{AxisKind, Machine, Travel};
 
@@ -17,13 +18,15 @@ use crate::block::{Block, BlockKind, Position};
 use crate::{MotionError, Program, Warning};
 
 /// Checks `program` on `machine`; `work_offset_at` is the work offset's position in machine
-/// coordinates (X, Y, Z of the linear axes), when the set-up gives it. Returns the warnings.
+/// coordinates (X, Y, Z of the linear axes), when the set-up gives it; `units` are the CL file's
+/// (the warnings' help). Returns the warnings.
 pub fn check(
     program: &Program,
     machine: &Machine,
     work_offset_at: Option<&Point3<f64>>,
+    units: UnitsInfo,
 ) -> Result<Vec<Warning>, MotionError> {
-    let mut check = TravelCheck::new(machine, work_offset_at);
+    let mut check = TravelCheck::new(machine, work_offset_at, units);
     for block in &program.blocks {
         check.block(block)?;
     }
@@ -38,11 +41,14 @@ pub struct TravelCheck<'a> {
     shift: Vec<Option<f64>>,
     low: Vec<(f64, Span)>,
     high: Vec<(f64, Span)>,
+    /// The CL file's length unit and what decided it.
+    units: UnitsInfo,
 }
 
 impl<'a> TravelCheck<'a> {
-    /// A check on `machine`, the work offset at `work_offset_at` in machine coordinates if known.
-    pub fn new(machine: &'a Machine, work_offset_at: Option<&Point3<f64>>) -> TravelCheck<'a> {
+    /// A check on `machine`, the work offset at `work_offset_at` in machine coordinates if known,
+    /// of a CL file in `units`.
+    pub fn new(machine: &'a Machine, work_offset_at: Option<&Point3<f64>>, units: UnitsInfo) -> TravelCheck<'a> {
         let count = machine.axes.len();
         let shift = (0..count)
             .map(|i| {
@@ -55,6 +61,7 @@ impl<'a> TravelCheck<'a> {
             shift,
             low: vec![(f64::INFINITY, Span::default()); count],
             high: vec![(f64::NEG_INFINITY, Span::default()); count],
+            units,
         }
     }
 
@@ -114,6 +121,7 @@ impl<'a> TravelCheck<'a> {
     /// The warnings: each linear axis whose span exceeds its travel, where the work offset's
     /// place is not known.
     pub fn finish(self) -> Vec<Warning> {
+        let hint = unit_hint(self.units);
         let mut warnings = Vec::new();
         for (i, axis) in self.machine.axes.iter().enumerate() {
             if axis.kind != AxisKind::Linear || self.shift[i].is_some() || !self.low[i].0.is_finite() {
@@ -125,8 +133,7 @@ impl<'a> TravelCheck<'a> {
                     warnings.push(Warning {
                         span: self.high[i].1,
                         message: format!(
-                            "the program spans {} mm in {} but its travel is {} mm: no work offset holds it (set \
-                             `work_offset_at` in the set-up to check the travels exactly)",
+                            "the program spans {} mm in {} but its travel is {} mm: no work offset holds it ({hint})",
                             crate::number((span * 1000.0).round() / 1000.0),
                             axis.letter,
                             crate::number(((max - min) * 1000.0).round() / 1000.0)
@@ -136,5 +143,40 @@ impl<'a> TravelCheck<'a> {
             }
         }
         warnings
+    }
+}
+
+/// What the span warning suggests: the unit first where the CL file's own says inches (Creo
+/// writes `UNITS / INCHES` over millimetre values), else setting the work offset's place.
+fn unit_hint(units: UnitsInfo) -> String {
+    let said = match units {
+        UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::Declared(_) } => "its UNITS statement",
+        UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::FeedWord(_) } => "the unit word of its feeds",
+        _ => return "set `work_offset_at` in the set-up to check the travels exactly".into(),
+    };
+    format!(
+        "the CL file's values are read as inches, as {said} says: if they are millimetres, post it with \
+         `--cl-units mm`"
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unit_hint;
+    use postpro_cl::{LengthUnit, Span, UnitsInfo, UnitsOrigin};
+
+    #[test]
+    fn the_span_warning_asks_about_the_unit_only_where_the_file_says_inches() {
+        let inch = |origin| unit_hint(UnitsInfo { unit: LengthUnit::Inch, origin });
+        assert!(inch(UnitsOrigin::Declared(Span::default())).contains("as its UNITS statement says"));
+        assert!(inch(UnitsOrigin::FeedWord(Span::default())).contains("--cl-units mm"));
+        // The user said the unit, or the file said millimetres or nothing: the work offset.
+        for units in [
+            UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::Option },
+            UnitsInfo { unit: LengthUnit::Mm, origin: UnitsOrigin::Declared(Span::default()) },
+            UnitsInfo { unit: LengthUnit::Mm, origin: UnitsOrigin::Assumed },
+        ] {
+            assert!(unit_hint(units).contains("`work_offset_at`"), "{units:?}");
+        }
     }
 }

@@ -251,8 +251,13 @@ impl Job {
             |e: postpro_motion::MotionError| report::render_with_source(e, self.source.name(), self.source.text());
         let program =
             postpro_motion::collect(&self.path, &self.solved, kin, &options, &job).map_err(|e| fail(&render(e), 1))?;
-        let travel = postpro_motion::travel::check(&program, &self.machine, self.setup.work_offset_at.as_ref())
-            .map_err(|e| fail(&render(e), 1))?;
+        let travel = postpro_motion::travel::check(
+            &program,
+            &self.machine,
+            self.setup.work_offset_at.as_ref(),
+            self.path.info.units,
+        )
+        .map_err(|e| fail(&render(e), 1))?;
         let warnings = warn_all(&self.source, program.summary.warnings.iter().chain(&travel), self.strict);
         if self.strict && warnings > 0 {
             return Err(fail(&format!("error: {warnings} warning(s), and --strict makes them errors\n"), 1));

@@ -412,7 +412,8 @@ impl Passes<'_> {
 
     /// The travel check before `next`.
     fn checked<'s>(&'s self, next: &'s mut dyn MotionSink) -> Checked<'s> {
-        Checked { travel: TravelCheck::new(self.machine, self.setup.work_offset_at.as_ref()), error: None, next }
+        let units = self.surveyed.info.units;
+        Checked { travel: TravelCheck::new(self.machine, self.setup.work_offset_at.as_ref(), units), error: None, next }
     }
 
     /// The end of the prediction pass: its warnings, the working planes, the prediction's header

@@ -280,3 +280,31 @@ fn no_progress_bar_is_drawn_when_standard_error_is_not_a_terminal() {
     assert!(err.contains("wrote "), "{err}");
     assert!(!err.contains('\r') && !err.contains('\u{1b}') && !err.contains("[=="), "{err:?}");
 }
+
+#[test]
+fn a_span_beyond_the_travel_in_an_inch_file_asks_whether_its_values_are_millimetres() {
+    // Creo writes `UNITS / INCHES` over millimetre values: a 250 mm part read as 250 inches.
+    let dir = std::env::temp_dir().join(format!("postpro-cli-inches-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let cl = dir.join("creo.ncl");
+    let moves: String = (0..=10).map(|i| format!("GOTO / {}.0, 20.0, 5.0\n", 25 * i)).collect();
+    let text = format!("UNITS / INCHES\nLOADTL / 2\nSPINDL / RPM, 8000, CLW\nCOOLNT / ON\nFEDRAT / 1000, IPM\n{moves}");
+    std::fs::write(&cl, text).expect("write");
+    let out = dir.join("creo.nc");
+    let (cl, out) = (cl.to_string_lossy(), out.to_string_lossy());
+    let o = postpro(&["--machine", "mikron", &cl, "-o", &out]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("the program spans 6350 mm in X but its travel is 710 mm"), "{err}");
+    assert!(
+        err.contains(
+            "read as inches, as its UNITS statement says: if they are millimetres, post it with `--cl-units mm`"
+        ),
+        "{err}"
+    );
+    // Read as millimetres, the part fits: no span warning.
+    let o = postpro(&["--machine", "mikron", &cl, "-o", &out, "--cl-units", "mm"]);
+    let err = stderr(&o);
+    assert!(o.status.success() && !err.contains("spans"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
