@@ -4,8 +4,9 @@
 //! within them; the rotations postpro adds are checked here). Linear axes are written in the work
 //! offset's frame: their machine coordinates are known only when the set-up says where the work
 //! offset is (`work_offset_at`); then each is checked, else each axis's span must fit its travel
-//! (a warning: no work offset could make a wider span fit; where the CL file says inches, the
-//! warning asks whether its values are millimetres, as Creo's often are).
+//! (a warning: no work offset could make a wider span fit; its help asks, where the CL file says
+//! inches, whether its values are millimetres, as Creo's often are, and, where the table turns
+//! the part, about where the part sits on it).
 //! The moves postpro adds at the clearance are not checked for their linear values: the clearance
 //! is the machine definition's, already checked.
 
@@ -121,7 +122,7 @@ impl<'a> TravelCheck<'a> {
     /// The warnings: each linear axis whose span exceeds its travel, where the work offset's
     /// place is not known.
     pub fn finish(self) -> Vec<Warning> {
-        let hint = unit_hint(self.units);
+        let hint = span_hint(self.units, !self.machine.chain.part.is_empty());
         let mut warnings = Vec::new();
         for (i, axis) in self.machine.axes.iter().enumerate() {
             if axis.kind != AxisKind::Linear || self.shift[i].is_some() || !self.low[i].0.is_finite() {
@@ -147,11 +148,17 @@ impl<'a> TravelCheck<'a> {
 }
 
 /// What the span warning suggests: the unit first where the CL file's own says inches (Creo
-/// writes `UNITS / INCHES` over millimetre values), else setting the work offset's place.
-fn unit_hint(units: UnitsInfo) -> String {
+/// writes `UNITS / INCHES` over millimetre values); on a machine whose table turns the part, where
+/// the part sits on it (the spans depend on it); else setting the work offset's place.
+fn span_hint(units: UnitsInfo, part_turns: bool) -> String {
     let said = match units {
         UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::Declared(_) } => "its UNITS statement",
         UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::FeedWord(_) } => "the unit word of its feeds",
+        _ if part_turns => {
+            return "the table turns the part: the spans depend on where the part zero sits from the rotation \
+                    reference, `part_origin` in the set-up; `work_offset_at` checks the travels exactly"
+                .into();
+        }
         _ => return "set `work_offset_at` in the set-up to check the travels exactly".into(),
     };
     format!(
@@ -162,21 +169,24 @@ fn unit_hint(units: UnitsInfo) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::unit_hint;
+    use super::span_hint;
     use postpro_cl::{LengthUnit, Span, UnitsInfo, UnitsOrigin};
 
     #[test]
-    fn the_span_warning_asks_about_the_unit_only_where_the_file_says_inches() {
-        let inch = |origin| unit_hint(UnitsInfo { unit: LengthUnit::Inch, origin });
-        assert!(inch(UnitsOrigin::Declared(Span::default())).contains("as its UNITS statement says"));
-        assert!(inch(UnitsOrigin::FeedWord(Span::default())).contains("--cl-units mm"));
-        // The user said the unit, or the file said millimetres or nothing: the work offset.
+    fn the_span_warning_asks_about_the_unit_where_the_file_says_inches_then_about_the_part_origin() {
+        for part_turns in [false, true] {
+            let inch = |origin| span_hint(UnitsInfo { unit: LengthUnit::Inch, origin }, part_turns);
+            assert!(inch(UnitsOrigin::Declared(Span::default())).contains("as its UNITS statement says"));
+            assert!(inch(UnitsOrigin::FeedWord(Span::default())).contains("--cl-units mm"));
+        }
+        // The user said the unit, or the file said millimetres or nothing.
         for units in [
             UnitsInfo { unit: LengthUnit::Inch, origin: UnitsOrigin::Option },
             UnitsInfo { unit: LengthUnit::Mm, origin: UnitsOrigin::Declared(Span::default()) },
             UnitsInfo { unit: LengthUnit::Mm, origin: UnitsOrigin::Assumed },
         ] {
-            assert!(unit_hint(units).contains("`work_offset_at`"), "{units:?}");
+            assert!(span_hint(units, true).contains("`part_origin`"), "{units:?}");
+            assert!(span_hint(units, false).starts_with("set `work_offset_at`"), "{units:?}");
         }
     }
 }
