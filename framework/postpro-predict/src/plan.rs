@@ -348,8 +348,8 @@ pub enum Progress {
 pub struct Stepper {
     /// Where each piece ends in the parameter.
     ends: Window<f64>,
-    /// The cap at each known junction.
-    caps: Window<(f64, Limit)>,
+    /// Each known junction as the scan ahead reads it.
+    known: Window<Ahead>,
     h: f64,
     t: f64,
     u: f64,
@@ -379,7 +379,7 @@ impl Stepper {
     pub fn new(h: f64) -> Stepper {
         Stepper {
             ends: Window::default(),
-            caps: Window::default(),
+            known: Window::default(),
             h,
             t: 0.0,
             u: 0.0,
@@ -413,7 +413,7 @@ impl Stepper {
     /// Forgets what it computed of the pieces before piece `i`.
     pub fn forget_before(&mut self, i: usize) {
         self.ends.forget_before(i);
-        self.caps.forget_before(i);
+        self.known.forget_before(i);
     }
 
     /// Takes in the pieces and junctions added to `track` since the last call.
@@ -423,9 +423,11 @@ impl Stepper {
             let before = if i == 0 { 0.0 } else { self.ends[i - 1] };
             self.ends.push(before + track.pieces[i].length);
         }
-        while self.caps.end() < track.len() && track.known(self.caps.end()) {
-            let i = self.caps.end();
-            self.caps.push(track.junction_cap(i));
+        while self.known.end() < track.len() && track.known(self.known.end()) {
+            let i = self.known.end();
+            let (cap, why) = track.junction_cap(i);
+            let piece = &track.pieces[i];
+            self.known.push(Ahead { at: self.ends[i], cap, why, acceleration: piece.acceleration, jerk: piece.jerk });
         }
     }
 
@@ -489,7 +491,7 @@ impl Stepper {
             self.guard += 1;
             let piece = track.pieces[self.k];
             let piece_was = self.k;
-            if self.caps[self.k].0 <= 0.0
+            if self.known[self.k].cap <= 0.0
                 && let Some(tau) = final_phase(self.a, j, self.h)
                 && tau <= self.h
                 && self.ends[self.k] - self.u <= self.v * tau + 1e-12
@@ -515,7 +517,7 @@ impl Stepper {
                 let at = self.ends[self.k];
                 let tau = time_to(self.u, self.v, self.a, j, at, self.h);
                 let (_, vc, _) = advance(self.u, self.v, self.a, j, tau);
-                if self.caps[self.k].0 <= 0.0 {
+                if self.known[self.k].cap <= 0.0 {
                     // An exact stop: the motion ends at the junction, at the end of the braking's
                     // last phase: the deceleration eased to 0 at the piece's jerk, never sooner.
                     let ease = if self.a < 0.0 { -self.a / piece.jerk } else { 0.0 };
@@ -530,7 +532,7 @@ impl Stepper {
                     break;
                 }
                 // At its cap, the junction is what holds the speed there.
-                let (cap, why) = self.caps[self.k];
+                let Ahead { cap, why, .. } = self.known[self.k];
                 let here = if vc >= 0.99 * cap { why } else { limit };
                 observer.crossing(self.k, self.t + tau, vc.max(0.0), here);
                 self.k += 1;
@@ -564,7 +566,7 @@ impl Stepper {
                 // last bit as the end of a braking would, and stop there.
                 self.t += (6.0 * rest / piece.jerk.max(1e-12)).cbrt();
                 self.u = at;
-                let why = if self.caps[self.k].0 <= 0.0 { Limit::Stop } else { Limit::LookAhead };
+                let why = if self.known[self.k].cap <= 0.0 { Limit::Stop } else { Limit::LookAhead };
                 observer.crossing(self.k, self.t, 0.0, why);
                 observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
                 self.k += 1;
@@ -723,7 +725,6 @@ impl Stepper {
         }
         // Junctions ahead, within the window and within braking reach: decided on a copy of the
         // state, committed once the track held all it needed.
-        let pieces = &track.pieces;
         let (mut u1, mut v1, mut a1) = advance(u, v, a, j, h);
         // The limits of the pieces up to junction m: the braking happens on them. The piece after
         // the junction only asks that the acceleration be within its own when the motion gets
@@ -737,21 +738,25 @@ impl Stepper {
         // bind: what a cruise may skip.
         let mut comes_into_reach = None;
         let mut could_bind = false;
+        // The highest speed the state reaches, once its acceleration is ended along the path: a
+        // cap above it is no constraint. Computed again when the state or the path's jerk changes.
+        let peak_of = |v1: f64, a1: f64, j_path: f64| v1 + a1.max(0.0).powi(2) / (2.0 * j_path);
+        let mut peak = peak_of(v1, a1, j_path);
         let mut m = self.k;
         loop {
             tally!(JUNCTIONS);
             if last.is_some_and(|last| m > last) {
                 break;
             }
-            if !track.known(m) {
-                return None; // the scan needs a junction the track does not hold yet
-            }
-            if m > self.k && (pieces[m].acceleration < a_path || pieces[m].jerk < j_path) {
-                a_path = a_path.min(pieces[m].acceleration);
-                j_path = j_path.min(pieces[m].jerk);
+            // The scan needs a junction the track does not hold yet.
+            let junction = *self.known.get(m)?;
+            if m > self.k && (junction.acceleration < a_path || junction.jerk < j_path) {
+                a_path = a_path.min(junction.acceleration);
+                j_path = j_path.min(junction.jerk);
                 stale = Some((v1, a1, a_path, j_path));
+                peak = peak_of(v1, a1, j_path);
             }
-            let at = self.ends[m];
+            let at = junction.at;
             // Beyond the braking reach nothing binds yet. Reaching a cap above 0 can take up to
             // an eighth more room than stopping (jerk-limited braking to v0/3 from v0, or to
             // A²/2J), hence the margin: a junction must be seen before its braking begins.
@@ -765,15 +770,14 @@ impl Stepper {
                 }
             }
             // The window's end, unless the program stops there anyway.
-            let (cap, why) = if Some(m) == last && m + 1 < track.len() && self.caps[m].0 > 0.0 {
+            let (cap, why) = if Some(m) == last && m + 1 < track.len() && junction.cap > 0.0 {
                 (0.0, Limit::LookAhead)
             } else {
-                self.caps[m]
+                (junction.cap, junction.why)
             };
             // The motion stops at a junction capped at 0: nothing after it matters.
             let stop = cap <= 0.0;
             // A cap the speed cannot reach is no constraint.
-            let peak = v1 + a1.max(0.0).powi(2) / (2.0 * j_path);
             if cap >= peak {
                 if stop {
                     break;
@@ -804,6 +808,7 @@ impl Stepper {
                     largest_fitting_unimodal(&slack, (floor, at_floor), (j, at_j))
                 };
                 (u1, v1, a1) = advance(u, v, a, j, h);
+                peak = peak_of(v1, a1, j_path);
             }
             if stop {
                 break;
@@ -816,6 +821,22 @@ impl Stepper {
         });
         Some((j, limit, ahead))
     }
+}
+
+/// A known junction as the scan of the junctions ahead reads it ([`Stepper::choose`]): where it
+/// is, its cap, and the limits of the piece it ends, in one record.
+#[derive(Clone, Copy, Debug)]
+struct Ahead {
+    /// Where the piece it ends ends, in the parameter.
+    at: f64,
+    /// The cap on `u̇` there ([`Track::junction_cap`]).
+    cap: f64,
+    /// What gives the cap.
+    why: Limit,
+    /// The piece's cap on `|ü|`.
+    acceleration: f64,
+    /// The piece's cap on `|u⃛|`.
+    jerk: f64,
 }
 
 /// The largest jerk in `[lo, hi]` whose `slack` is not negative, knowing `slack(hi) < 0` and
