@@ -204,6 +204,51 @@ pub fn extra_examples() -> Vec<(&'static str, String)> {
     vec![("hypar-3plus2.cl", hypar_3plus2_example())]
 }
 
+/// Passes of [`fine_finishing_file`] for about a million CL points (62 MB): one every 0.3 mm
+/// over the 300 mm of the part.
+pub const FINE_PASSES_1M: usize = 1000;
+
+/// The usual CAM finishing output, as NX CLSF text: the Manta scaled by ½ about its centre
+/// (300 × 300 × 50 mm, within the travels of the Mikron UCP 710), `passes` zig-zag passes along
+/// x, a point every 0.3 mm along them (the chords of a 0.01 mm chordal tolerance), ball D10,
+/// lead 10°, 3 m/min: short blocks at a moderate feed, a few interpolation periods each. The
+/// text is deterministic.
+///
+/// # Panics
+///
+/// Never for `passes` ≥ 1 (the parameters are valid); 0 passes are taken as 1.
+#[must_use]
+pub fn fine_finishing_file(passes: usize) -> String {
+    let manta = BezierPatch::manta();
+    let control = (0..=manta.degree_u())
+        .map(|i| {
+            (0..=manta.degree_v())
+                .map(|j| {
+                    let p = manta.control_point(i, j).expect("inside the control net");
+                    [(p[0] - 300.0) * 0.5, (p[1] - 300.0) * 0.5, p[2] * 0.5]
+                })
+                .collect()
+        })
+        .collect();
+    let params = ToolpathParams {
+        tool_radius: 5.0,
+        tool_length: 75.0,
+        lead_angle_deg: 10.0,
+        pattern: Pattern::AlongU,
+        step_over: StepOver::Passes(passes.max(1)),
+        zigzag: true,
+        point_spacing: 0.3,
+        min_pass_length: 0.0,
+        clearance: 10.0,
+        feed: 3000.0,
+        plunge_feed: 1000.0,
+        spindle_rpm: 12000,
+    };
+    let path = generate(&BezierPatch::new(control), &params).expect("valid tool path parameters");
+    let comments = vec!["GENERATOR : postpro-examples fine (half-size Manta, 0.3 mm chords)".to_owned()];
+    nx_clsf(&path, &comments)
+}
+
 /// A GOTO-dominated 5-axis NX CLSF text of about `target_bytes` bytes (see
 /// [`write_big_goto_file`]).
 #[must_use]
@@ -343,5 +388,31 @@ mod tests {
         let written = write_big_goto_file(&mut sink, 1_000_000).expect("vec");
         assert_eq!(written as usize, sink.len());
         assert_eq!(sink, text.into_bytes());
+    }
+
+    #[test]
+    fn the_fine_file_has_a_point_every_0_3_mm_on_as_many_passes_as_asked() {
+        let text = fine_finishing_file(4);
+        assert!(text.contains("\nFEDRAT/MMPM,3000.0000\n") && text.ends_with("END-OF-PATH\n"), "{}", &text[..200]);
+        let points: Vec<[f64; 3]> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("GOTO/"))
+            .map(|args| {
+                let v: Vec<f64> = args.split(',').map(|x| x.parse().expect("a number")).collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect();
+        // Along a pass (x varies, y nearly constant) the chords are 0.3 mm long.
+        let chords: Vec<f64> = points
+            .windows(2)
+            .filter(|w| (w[0][1] - w[1][1]).abs() < 0.05)
+            .map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt())
+            .collect();
+        let mean = chords.iter().sum::<f64>() / chords.len() as f64;
+        assert!((mean - 0.3).abs() < 0.02, "mean chord {mean}");
+        // Four passes of 300 mm: about 4 × 1000 points; twice the passes, twice the points.
+        assert!((3_800..4_400).contains(&points.len()), "{}", points.len());
+        let more = fine_finishing_file(8).lines().filter(|l| l.starts_with("GOTO/")).count();
+        assert!(more.abs_diff(2 * points.len()) < 100, "{more} against {}", points.len());
     }
 }

@@ -3,6 +3,7 @@
 //! ```text
 //! postpro-examples write [--dir DIR]        # the bundled examples (default: examples/cl)
 //! postpro-examples big --size-mb N OUT      # a GOTO-dominated file of about N MiB
+//! postpro-examples fine --passes N OUT      # finishing with 0.3 mm chords (1000: ~1 M points)
 //! ```
 //!
 //! Files are written atomically: to a temporary file in the target directory, then
@@ -39,6 +40,16 @@ enum Command {
         /// Approximate size in MiB (1 MiB = 1,048,576 bytes); fractions are allowed.
         #[arg(long, value_name = "N")]
         size_mb: f64,
+        /// Output file.
+        #[arg(value_name = "OUT")]
+        out: PathBuf,
+    },
+    /// Write a 5-axis finishing file of short blocks (a point every 0.3 mm on passes 0.3 mm
+    /// apart, 3 m/min) for throughput benchmarks.
+    Fine {
+        /// Number of passes (1000: about a million CL points, 62 MB).
+        #[arg(long, value_name = "N", default_value_t = postpro_examples::FINE_PASSES_1M)]
+        passes: usize,
         /// Output file.
         #[arg(value_name = "OUT")]
         out: PathBuf,
@@ -91,6 +102,16 @@ fn run(command: Command) -> Result<(), String> {
             })
             .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
             println!("wrote {} ({written} bytes)", display(&out));
+            Ok(())
+        }
+        Command::Fine { passes, out } => {
+            if !(1..=100_000).contains(&passes) {
+                return Err(format!("--passes must be between 1 and 100000, got {passes}"));
+            }
+            let text = postpro_examples::fine_finishing_file(passes);
+            write_atomically(&out, |w| w.write_all(text.as_bytes()))
+                .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+            println!("wrote {} ({} bytes)", display(&out), text.len());
             Ok(())
         }
     }

@@ -3,11 +3,10 @@
 //!
 //! Two workloads, each read and solved once outside the timed loops:
 //!
-//! - `fine`: the usual CAM finishing output, short blocks at a moderate feed: the Manta of
-//!   paper 004 scaled by ½ about its centre (300 × 300 × 50 mm, so that it fits the travels of
-//!   the Mikron UCP 710), zig-zag passes along x every 0.3 mm, a point every 0.3 mm along them
-//!   (the chords of a 0.01 mm chordal tolerance), ball D10, lead 10°, 3 m/min; on the Mikron
-//!   UCP 710 (3 ms cycle, look-ahead 10). A few samples per block.
+//! - `fine`: `postpro_examples::fine_finishing_file`, the usual CAM finishing output, short
+//!   blocks at a moderate feed (the Manta of paper 004 scaled by ½, a point every 0.3 mm on
+//!   passes 0.3 mm apart, 3 m/min; also `postpro-examples fine`); on the Mikron UCP 710 (3 ms
+//!   cycle, look-ahead 10). A few samples per block.
 //! - `coarse`: `postpro_examples::big_goto_file` (layers of the full-size Manta finishing path,
 //!   about 4 mm per block at 3–5 m/min); the Manta is 600 mm wide, more than the Mikron's
 //!   travels hold, so it runs on the nutating head-head example machine the emit benchmark uses
@@ -35,8 +34,6 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use postpro_cl::{Source, read};
-use postpro_examples::surface::BezierPatch;
-use postpro_examples::toolpath::{Pattern, StepOver, ToolpathParams, generate};
 use postpro_kin::{Kinematics, solve, solver_for};
 use postpro_machine::Registry;
 use postpro_machine::model::Machine;
@@ -44,8 +41,6 @@ use postpro_predict::{Blocks, Options, Timing, blocks, predict};
 
 /// Size of the coarse program in MiB at scale 1 (about 1 M blocks on the nutating machine).
 const COARSE_MB: f64 = 58.0;
-/// Passes of the fine program at scale 1 (about 1 M blocks): one every 0.3 mm over 300 mm.
-const FINE_PASSES: f64 = 1000.0;
 
 /// A program read and solved on a machine, ready to be turned into blocks and predicted.
 struct Workload {
@@ -54,38 +49,6 @@ struct Workload {
     kin: Box<dyn Kinematics>,
     program: postpro_motion::Program,
     blocks: Blocks,
-}
-
-/// The fine finishing program (see the module documentation), as NX CLSF text.
-fn fine_cl(scale: f64) -> String {
-    let manta = BezierPatch::manta();
-    let control = (0..=manta.degree_u())
-        .map(|i| {
-            (0..=manta.degree_v())
-                .map(|j| {
-                    let p = manta.control_point(i, j).expect("inside the control net");
-                    [(p[0] - 300.0) * 0.5, (p[1] - 300.0) * 0.5, p[2] * 0.5]
-                })
-                .collect()
-        })
-        .collect();
-    let params = ToolpathParams {
-        tool_radius: 5.0,
-        tool_length: 75.0,
-        lead_angle_deg: 10.0,
-        pattern: Pattern::AlongU,
-        step_over: StepOver::Passes(((FINE_PASSES * scale).round() as usize).max(1)),
-        zigzag: true,
-        point_spacing: 0.3,
-        min_pass_length: 0.0,
-        clearance: 10.0,
-        feed: 3000.0,
-        plunge_feed: 1000.0,
-        spindle_rpm: 12000,
-    };
-    let path = generate(&BezierPatch::new(control), &params).expect("valid tool path parameters");
-    let comments = vec!["GENERATOR : postpro-predict bench (half-size Manta, 0.3 mm chords)".to_owned()];
-    postpro_examples::cl::nx_clsf(&path, &comments)
 }
 
 /// Reads and solves `text` on `machine`, builds its blocks and predicts them once, printing the
@@ -157,7 +120,8 @@ fn bench(c: &mut Criterion) {
     let wanted = |name: &str| only.split(',').any(|w| w.trim() == name);
     let mut workloads = Vec::new();
     if wanted("fine") {
-        workloads.push(prepare("fine", fine_cl(scale), "mikron-ucp710", &registry));
+        let passes = (postpro_examples::FINE_PASSES_1M as f64 * scale).round() as usize;
+        workloads.push(prepare("fine", postpro_examples::fine_finishing_file(passes), "mikron-ucp710", &registry));
     }
     if wanted("coarse") {
         let text = postpro_examples::big_goto_file((COARSE_MB * scale * 1_048_576.0).round() as usize);
