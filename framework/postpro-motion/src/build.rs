@@ -259,6 +259,14 @@ impl<'a> Stage<'a> {
         Stage { b, k: 0, cl_points: 0, decisions: 0 }
     }
 
+    /// The answers the program took from guessed set-ups ([`SetUps::guessed`]), `(step,
+    /// answer)`: none from surveyed ones.
+    ///
+    /// [`SetUps::guessed`]: crate::SetUps::guessed
+    pub fn guessed_answers(&self) -> &[(usize, bool)] {
+        &self.b.guessed
+    }
+
     /// Item `index` of the tool path, with `steps` (every step up to its statement not given
     /// before, numbered from the steps given so far) and `decisions` (those about these steps).
     pub fn item(&mut self, index: usize, item: &Item, steps: &[Step], decisions: &[Noted]) -> Result<(), MotionError> {
@@ -397,6 +405,8 @@ pub(crate) struct Builder<'a> {
     pub(crate) warnings: Vec<Warning>,
     /// Which steps stand in a 3+2 set-up.
     pub(crate) set_ups: crate::survey::SetUps,
+    /// The answers taken from guessed set-ups, `(step, answer)`.
+    pub(crate) guessed: Vec<(usize, bool)>,
     /// The working plane in force.
     pub(crate) plane: Option<crate::block::PlaneKind>,
     /// Per axis, its brake: locked, unlocked, or not known (at the start: unlocked before the axis
@@ -442,6 +452,7 @@ impl<'a> Builder<'a> {
             via: Vec::new(),
             warnings: Vec::new(),
             set_ups,
+            guessed: Vec::new(),
             plane: None,
             locked: vec![None; kin.machine().axes.len()],
         }

@@ -80,7 +80,7 @@ impl Builder<'_> {
             }
             j
         });
-        let indexed = self.indexed_from(k);
+        let indexed = self.indexed_from(k, span);
         if (0..count).any(|i| rotaries.contains(i)) {
             for i in (0..count).filter(|&i| rotaries.contains(i)) {
                 at[i] = target[i];
@@ -158,10 +158,17 @@ impl Builder<'_> {
         }
     }
 
-    /// True when the rotary axes of step `k` stand until the next rapid that turns them (or the
-    /// end): a 3+2 set-up, not simultaneous motion.
-    pub(crate) fn indexed_from(&self, k: usize) -> bool {
-        self.set_ups.indexed_from(k)
+    /// True when the rotary axes of step `k` (of the CL statement at `span`) stand until the next
+    /// rapid that turns them (or the end): a 3+2 set-up, not simultaneous motion. A guessed
+    /// answer is kept, to be checked.
+    pub(crate) fn indexed_from(&mut self, k: usize, span: postpro_cl::Span) -> bool {
+        match self.set_ups.guess_at(span.start) {
+            Some(answer) => {
+                self.guessed.push((k, answer));
+                answer
+            }
+            None => self.set_ups.indexed_from(k),
+        }
     }
 
     /// The working plane of the set-up with the rotary axes at `joints` (the kinematics'

@@ -25,7 +25,7 @@ pub use block::{
 };
 pub use build::{Arcs, Job, Options, Stage, build, collect, study, unknown_words};
 pub use frame::{WorkFrame, part_zero_frame, work_frame};
-pub use survey::{SetUps, Survey, Surveyor};
+pub use survey::{AxisStretches, SetUps, Survey, Surveyor};
 pub use tooling::{Tool, Tooling, ToolingReader, tooling};
 
 use postpro_cl::Span;

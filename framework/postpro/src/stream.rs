@@ -3,7 +3,8 @@
 //!
 //! 1. **Survey**: the reader's items, their targets and the policy's first pass (the branch
 //!    graph), the tools and their changes, whether the tool turns while cutting (the mode `auto`
-//!    picks), what the reader passed over.
+//!    picks), what the reader passed over, the 3+2 set-ups guessed from the tool axes (where the
+//!    rotary brakes lock, for the prediction pass to write; kept only where the steps agree).
 //! 2. **Prediction**: the items again, the policy's second pass, the linearization and the motion
 //!    program, each a stage handing on to the next; the prediction reads the blocks as they come
 //!    and keeps its look-ahead; the steps are surveyed for the 3+2 set-ups.
@@ -37,7 +38,7 @@ use postpro_kin::{
 };
 use postpro_machine::model::Machine;
 use postpro_motion::travel::TravelCheck;
-use postpro_motion::{MotionSink, SetUps, Stage, Survey, Surveyor, ToolingReader};
+use postpro_motion::{AxisStretches, MotionSink, SetUps, Stage, Survey, Surveyor, ToolingReader};
 use postpro_predict::moves::Reader;
 use postpro_predict::{Blocks, MarkFinder, Predictor};
 
@@ -129,6 +130,8 @@ struct Surveyed {
     turns_tool: bool,
     moves: bool,
     inserts: (usize, Option<Span>),
+    /// The 3+2 set-ups guessed from the tool axes, for a machine whose rotary axes have brakes.
+    stretches: AxisStretches,
 }
 
 /// The first pass's sink.
@@ -141,6 +144,7 @@ struct SurveySink<'a> {
     turns_tool: bool,
     moves: bool,
     inserts: (usize, Option<Span>),
+    stretches: AxisStretches,
     error: Option<SolveError>,
 }
 
@@ -168,6 +172,9 @@ impl ItemSink for SurveySink<'_> {
         }
         self.targets.clear();
         postpro_kin::targets_of(&item, self.tolerance, &mut self.targets);
+        for t in &self.targets {
+            self.stretches.target(t.span.start, &t.pose.axis, t.rapid);
+        }
         for t in &self.targets {
             if let Err(e) = self.graph.push(t) {
                 self.error = Some(e);
@@ -249,6 +256,16 @@ struct Passed {
     summary: postpro_motion::Summary,
     survey: Option<Survey>,
     shape: Shape,
+    /// The answers the motion program took from guessed 3+2 set-ups, `(step, answer)`.
+    guessed: Vec<(usize, bool)>,
+}
+
+impl Passed {
+    /// True when the program the pass built is the one the set-ups it surveyed give: it took no
+    /// guessed answer they contradict.
+    fn as_surveyed(&self) -> bool {
+        self.guessed.is_empty() || self.survey.as_ref().is_some_and(|s| s.set_ups.agrees(&self.guessed))
+    }
 }
 
 impl Motions<'_> {
@@ -258,8 +275,9 @@ impl Motions<'_> {
             return Err(e);
         }
         let placing = self.placing.placing;
+        let guessed = self.stage.guessed_answers().to_vec();
         let summary = self.stage.finish(placing.inserted()).map_err(PassError::Motion)?;
-        Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: placing.shape() })
+        Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: placing.shape(), guessed })
     }
 }
 
@@ -405,9 +423,17 @@ impl Passes<'_> {
 
     /// The stages of the prediction pass, their blocks to `sink`: the policy's choice, the
     /// linearization recorded, every step standing in a set-up, the steps surveyed.
+    /// On a machine whose rotary axes have brakes, which lock where a set-up stands, the set-ups
+    /// are guessed from the tool axes (the steps that say are yet to come): the pass's program is
+    /// the one to write where its answers prove right ([`Passed::as_surveyed`]).
     fn prediction_pass(&self, sink: &mut dyn MotionSink) -> Result<Passed, Failure> {
         let choice = (&self.surveyed.choice, None);
-        self.pass.run(self.motion_options, SetUps::default(), choice, true, sink).map_err(Failure::Pass)
+        let set_ups = if self.machine.axes.iter().any(|a| a.clamp.is_some()) {
+            SetUps::guessed(self.surveyed.stretches.clone())
+        } else {
+            SetUps::default()
+        };
+        self.pass.run(self.motion_options, set_ups, choice, true, sink).map_err(Failure::Pass)
     }
 
     /// The travel check before `next`.
@@ -421,7 +447,7 @@ impl Passes<'_> {
     fn conclude(&self, passed: Passed, predicting: Option<Predicting<'_>>) -> Result<Concluded, Failure> {
         let (how, file, progress) = (self.how, self.file, self.pass.progress);
         let strict = how.setup.strict;
-        let Passed { summary, survey, shape } = passed;
+        let Passed { summary, survey, shape, .. } = passed;
         let survey = survey.unwrap_or_default();
         let warnings = progress.suspend(|| warn_all(file, &summary.warnings, strict));
         if strict && warnings > 0 {
@@ -595,12 +621,12 @@ impl Writer<'_, '_> {
     /// True when the program the writing pass would write is the one the prediction pass makes as
     /// it goes, but for the slowdowns' comments, which can be put in their places afterwards: a
     /// prediction to write, the dialect's own template, not both `N` words and a dialect that
-    /// numbers its lines (either is numbered anew as the body is copied, not both at once), no
-    /// rotary brakes (whether they lock depends on the steps
-    /// that follow), and no working planes (the frame of the blocks of a 3+2 set-up in one
-    /// depends on them), as where the tool turns while cutting. Whether the 3+2 set-ups stand in
-    /// working planes is known only at the end of the pass: if they do after all, the program is
-    /// written by a pass of its own.
+    /// numbers its lines (either is numbered anew as the body is copied, not both at once), and
+    /// no working planes (the frame of the blocks of a 3+2 set-up in one depends on them), as
+    /// where the tool turns while cutting. Whether the 3+2 set-ups stand in working planes is
+    /// known only at the end of the pass, and so is whether the rotary brakes lock where the
+    /// pass guessed (from the tool axes): if they do not, the program is written by a pass of its
+    /// own.
     fn speculates(&self) -> bool {
         let (passes, how, program) = (self.passes, self.passes.how, self.program);
         let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(program.template.1.as_str());
@@ -611,7 +637,6 @@ impl Writer<'_, '_> {
             && !program.three_passes
             && builtin
             && !(program.block_numbers && how.dialect.numbered_blocks)
-            && passes.machine.axes.iter().all(|a| a.clamp.is_none())
             && no_planes
     }
 
@@ -692,8 +717,9 @@ impl postpro_emit::DeferredBody for Speculation<'_, '_> {
         let Some(passed) = self.passed.take() else { return Ok(None) };
         let passes = self.passes;
         passes.predicted_at.set(Some(passes.elapsed()));
+        let as_surveyed = passed.as_surveyed();
         let concluded = passes.conclude(passed, self.predicting.take())?;
-        if !writing || concluded.planes.is_some() {
+        if !writing || concluded.planes.is_some() || !as_surveyed {
             self.concluded = Some(concluded);
             return Ok(None);
         }
@@ -1199,10 +1225,11 @@ fn survey(
         turns_tool: false,
         moves: false,
         inserts: (0, None),
+        stretches: AxisStretches::default(),
         error: None,
     };
     let (info, diagnostics) = file.read_into_with(read_options, &mut Counting { sink: &mut sink, progress })?;
-    let SurveySink { graph, tooling, turns_tool, moves, inserts, error, .. } = sink;
+    let SurveySink { graph, tooling, turns_tool, moves, inserts, stretches, error, .. } = sink;
     let (tooling, tool_warnings) = tooling.finish();
     Ok(Surveyed {
         info,
@@ -1214,6 +1241,7 @@ fn survey(
         turns_tool,
         moves,
         inserts,
+        stretches: stretches.finish(),
     })
 }
 

@@ -143,9 +143,10 @@ fn a_named_pipe_as_the_output_is_written_through_and_stays_a_pipe() {
 /// the CL file instead of three. The program, the messages and the exit code are those of the
 /// three passes byte for byte, in every dialect and mode, B-spline runs with their comments
 /// inside, Heidenhain's numbered lines and `N` words (moved up after each comment; a verbatim
-/// insert's own `N` word after the block's stays) included; the cases whose program depends on
-/// the whole pass take the third: rotary brakes, 3+2 set-ups in working planes (predicted again
-/// on their blocks first), `N` words on Heidenhain's numbered lines.
+/// insert's own `N` word after the block's stays) included, rotary brakes too (locked where the
+/// tool axes say a set-up stands); the cases whose program depends on the whole pass take the
+/// third: brakes where the steps prove the tool axes' guess wrong, 3+2 set-ups in working planes
+/// (predicted again on their blocks first), `N` words on Heidenhain's numbered lines.
 #[test]
 fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() {
     let dir = scratch("two-passes", "examples/cl/hypar-5axis.cl");
@@ -156,6 +157,24 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
     let insert = hypar.replacen("FEDRAT/MMPM,2000.0000\n", "FEDRAT/MMPM,2000.0000\nINSERT/N5 M1\n", 1);
     assert_ne!(insert, hypar, "the insert goes in");
     std::fs::write(dir.join("insert.cl"), insert).expect("write");
+    // A tool axis that turns by 1e-10 at feed: a set-up for the rotary axes (which stand within
+    // 1e-9), simultaneous motion for the tool axes: the brakes' guess proves wrong.
+    let wiggle = |i: &str| format!("GOTO/20.0000,0.0000,10.0000,{i},0.0000000,1.0000000\n");
+    let set_ups = [
+        "LOAD/TOOL,1\nSPINDL/RPM,8000,CLW\nCOOLNT/ON\nRAPID\nGOTO/0.0000,0.0000,50.0000,0.0000000,0.0000000,1.0000000\n",
+        "FEDRAT/MMPM,1000.0000\nGOTO/0.0000,0.0000,10.0000,0.0000000,0.0000000,1.0000000\n",
+        &wiggle("0.0000000001"),
+        "RAPID\nGOTO/30.0000,0.0000,50.0000,0.0000000,0.5000000,0.8660254\n",
+        // Three corners at feed: a slowdown worth a comment.
+        "GOTO/40.0000,10.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
+        "GOTO/40.0000,30.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
+        "GOTO/60.0000,30.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
+        "GOTO/60.0000,10.0000,10.0000,0.0000000,0.5000000,0.8660254\nEND-OF-PATH\n",
+    ]
+    .concat();
+    std::fs::write(dir.join("wiggle.cl"), &set_ups).expect("write");
+    std::fs::write(dir.join("still.cl"), set_ups.replace(&wiggle("0.0000000001"), &wiggle("0.0000000")))
+        .expect("write");
     let cases: &[(&str, &str, &[&str], usize)] = &[
         ("hypar-5axis.cl", "mikron", &["--mode", "g1"], 2),
         ("hypar-5axis.cl", "mikron", &["--mode", "tcp", "--tcp-orientation", "vectors"], 2),
@@ -172,7 +191,13 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
         ("hypar-5axis.cl", "mikron", &["--block-numbers", "--dialect", "heidenhain"], 3),
         ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain"], 2),
         ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain", "--mode", "tcp", "--tcp-orientation", "vectors"], 2),
-        ("hypar-5axis.cl", "haas-umc750", &[], 3),
+        // Rotary brakes: locked where the tool axes say, as the steps then prove.
+        ("hypar-5axis.cl", "haas-umc750", &[], 2),
+        ("bicubic-5axis.cl", "haas-umc750", &["--mode", "inverse-time"], 2),
+        ("still.cl", "haas-umc750", &["--plane-mode", "joints"], 2),
+        // The tool axes' guess proved wrong by the steps: the program written by a pass of its own.
+        ("wiggle.cl", "haas-umc750", &["--plane-mode", "joints"], 3),
+        ("hypar-3plus2.cl", "haas-umc750", &[], 4),
         // Predicted again on the blocks in working planes, then written: four passes.
         ("hypar-3plus2.cl", "mikron", &[], 4),
     ];
