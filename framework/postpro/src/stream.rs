@@ -12,14 +12,16 @@
 //!    rendered block by block into a scratch file beside the output, the travels checked; the
 //!    header (which names the lines of the worst slowdowns) is written last, before the body.
 //!
-//! Where the program does not depend on what the prediction pass finds ([`Passes::speculates`]),
+//! Where the program does not depend on what the prediction pass finds ([`Writer::speculates`]),
 //! the prediction pass writes the body as it goes and the slowdowns' comments are put in
 //! afterwards ([`Speculation`], `postpro_emit::write_program_deferred`): the same program, without
-//! the third pass.
+//! the third pass. Where the rotary brakes lock and whether the 3+2 set-ups stand in working
+//! planes are guessed from the survey's tool axes, and kept only where the steps prove them
+//! right.
 //!
-//! Where the 3+2 set-ups stand in working planes, whose frame changes their blocks, a pass of its
-//! own predicts again on the blocks in the planes before the writing: the header and comments are
-//! those of the program written. `postpro predict` runs the passes but the writing
+//! Where the 3+2 set-ups stand in working planes the prediction pass was not in, whose frame
+//! changes their blocks, a pass of its own predicts again on the blocks in the planes before the
+//! writing: the header and comments are those of the program written. `postpro predict` runs the passes but the writing
 //! ([`predict`]); `postpro solve` the survey and the stages up to the linearization ([`solve`]).
 //!
 //! Every pass runs the same stages on the same items, so the step and block numbers the
@@ -417,23 +419,31 @@ impl Passes<'_> {
             Some(p) => p,
             None => &mut dropped,
         };
-        let passed = self.prediction_pass(sink)?;
-        self.conclude(passed, predicting)
+        let passed = self.prediction_pass(None, sink)?;
+        self.conclude(passed, predicting, None)
     }
 
     /// The stages of the prediction pass, their blocks to `sink`: the policy's choice, the
-    /// linearization recorded, every step standing in a set-up, the steps surveyed.
-    /// On a machine whose rotary axes have brakes, which lock where a set-up stands, the set-ups
-    /// are guessed from the tool axes (the steps that say are yet to come): the pass's program is
-    /// the one to write where its answers prove right ([`Passed::as_surveyed`]).
-    fn prediction_pass(&self, sink: &mut dyn MotionSink) -> Result<Passed, Failure> {
+    /// linearization recorded, every step standing in a set-up, the steps surveyed; the 3+2
+    /// set-ups in working planes of `planes`, when guessed so. On a machine whose rotary axes
+    /// have brakes, which lock where a set-up stands, or in working planes, which stand where
+    /// one does, the set-ups are guessed from the tool axes (the steps that say are yet to
+    /// come): the pass's program is the one to write where its answers prove right
+    /// ([`Passed::as_surveyed`]).
+    fn prediction_pass(
+        &self,
+        planes: Option<postpro_motion::PlaneKind>,
+        sink: &mut dyn MotionSink,
+    ) -> Result<Passed, Failure> {
         let choice = (&self.surveyed.choice, None);
-        let set_ups = if self.machine.axes.iter().any(|a| a.clamp.is_some()) {
+        let set_ups = if planes.is_some() || self.machine.axes.iter().any(|a| a.clamp.is_some()) {
             SetUps::guessed(self.surveyed.stretches.clone())
         } else {
             SetUps::default()
         };
-        self.pass.run(self.motion_options, set_ups, choice, true, sink).map_err(Failure::Pass)
+        let (job, motion_options) = self.in_planes(planes);
+        let pass = Pass { job: &job, ..self.pass };
+        pass.run(&motion_options, set_ups, choice, true, sink).map_err(Failure::Pass)
     }
 
     /// The travel check before `next`.
@@ -442,9 +452,14 @@ impl Passes<'_> {
         Checked { travel: TravelCheck::new(self.machine, self.setup.work_offset_at.as_ref(), units), error: None, next }
     }
 
-    /// The end of the prediction pass: its warnings, the working planes, the prediction's header
-    /// and comments.
-    fn conclude(&self, passed: Passed, predicting: Option<Predicting<'_>>) -> Result<Concluded, Failure> {
+    /// The end of the prediction pass (which ran in the working planes `ran_in`): its warnings,
+    /// the working planes, the prediction's header and comments.
+    fn conclude(
+        &self,
+        passed: Passed,
+        predicting: Option<Predicting<'_>>,
+        ran_in: Option<postpro_motion::PlaneKind>,
+    ) -> Result<Concluded, Failure> {
         let (how, file, progress) = (self.how, self.file, self.pass.progress);
         let strict = how.setup.strict;
         let Passed { summary, survey, shape, .. } = passed;
@@ -459,7 +474,7 @@ impl Passes<'_> {
         // In working planes the set-ups' blocks differ: the prediction is made again on them, as
         // the program is written.
         let (predicting, repredicted) = match (planes, predicting) {
-            (Some(kind), Some(_)) => {
+            (Some(kind), Some(_)) if ran_in != Some(kind) => {
                 let mut again = self.predicting();
                 if let Some(p) = again.as_mut() {
                     self.planes_pass(kind, &survey, shape.clone(), p).map_err(Failure::Pass)?;
@@ -568,11 +583,14 @@ impl Writer<'_, '_> {
     /// goes where the program does not depend on what the pass finds ([`Self::speculates`]),
     /// else (or where the 3+2 set-ups it finds are written in working planes) by a pass of its own.
     fn predict_and_write(&self, out: &mut dyn Write, predicting: Option<Predicting<'_>>) -> Result<Outcome, Failure> {
-        let concluded = match predicting {
-            Some(predicting) if self.speculates() => {
+        let mut wasted = 0;
+        let concluded = match (predicting, self.speculates()) {
+            (Some(predicting), Some(planes)) => {
                 let mut body = Speculation {
                     passes: self.passes,
+                    planes,
                     predicting: Some(predicting),
+                    wasted: false,
                     travel: Vec::new(),
                     passed: None,
                     concluded: None,
@@ -580,7 +598,8 @@ impl Writer<'_, '_> {
                 let output = self.program.output;
                 let (mut scratch, mut places) =
                     (ScratchFile::beside(output, "body")?, ScratchFile::beside(output, "places")?);
-                let facts = self.passes.facts(self.passes.pass.job, postpro_motion::Summary::default());
+                let (job, _) = self.passes.in_planes(planes);
+                let facts = self.passes.facts(&job, postpro_motion::Summary::default());
                 let template = (self.program.template.0.as_str(), self.program.template.1.as_str());
                 let written = postpro_emit::write_program_deferred(
                     &facts,
@@ -606,38 +625,47 @@ impl Writer<'_, '_> {
                         self.passes.pass.progress.set_weights(if c.repredicted { &[1, 10, 8, 5] } else { &[1, 10, 5] });
                         c
                     }
-                    // Nothing was produced (the options or the template do not allow it).
+                    // Nothing was produced (the options or the template do not allow it), or the
+                    // working planes guessed proved wrong: predicted (again) as without a guess.
                     _ => match body.predicting {
-                        Some(predicting) => self.passes.predict(Some(predicting))?,
+                        Some(predicting) => {
+                            if body.wasted {
+                                wasted = 1;
+                                self.passes.pass.progress.repeat_pass(1);
+                            }
+                            self.passes.predict(Some(predicting))?
+                        }
                         None => return Err(Failure::Refused(format!("error: the program was not made; {WRITTEN}\n"))),
                     },
                 }
             }
-            predicting => self.passes.predict(predicting)?,
+            (predicting, _) => self.passes.predict(predicting)?,
         };
-        self.write_pass(out, concluded)
+        let outcome = self.write_pass(out, concluded)?;
+        Ok(Outcome { passes: outcome.passes + wasted, ..outcome })
     }
 
-    /// True when the program the writing pass would write is the one the prediction pass makes as
-    /// it goes, but for the slowdowns' comments, which can be put in their places afterwards: a
-    /// prediction to write, the dialect's own template, not both `N` words and a dialect that
-    /// numbers its lines (either is numbered anew as the body is copied, not both at once), and
-    /// no working planes (the frame of the blocks of a 3+2 set-up in one depends on them), as
-    /// where the tool turns while cutting. Whether the 3+2 set-ups stand in working planes is
-    /// known only at the end of the pass, and so is whether the rotary brakes lock where the
-    /// pass guessed (from the tool axes): if they do not, the program is written by a pass of its
-    /// own.
-    fn speculates(&self) -> bool {
+    /// The working planes the prediction pass is to write the program in as it goes (`Some(None)`:
+    /// none), when the program the writing pass would write can be the one it makes, but for the
+    /// slowdowns' comments, which can be put in their places afterwards: a prediction to write,
+    /// the dialect's own template, not both `N` words and a dialect that numbers its lines (either
+    /// is numbered anew as the body is copied, not both at once). The planes are guessed where the
+    /// dialect has them and no feed move turns the tool (the frame of a 3+2 set-up's blocks in
+    /// one depends on them); where the rotary brakes lock, from the tool axes. Both are known
+    /// only at the end of the pass: a wrong guess of brakes leaves the program to a pass of its
+    /// own, a wrong guess of planes the prediction too.
+    fn speculates(&self) -> Option<Option<postpro_motion::PlaneKind>> {
         let (passes, how, program) = (self.passes, self.passes.how, self.program);
         let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(program.template.1.as_str());
-        let no_planes = !how.shapes.planes
-            || !matches!(crate::job::plane_kind(passes.machine, passes.mode, how.dialect), Some(Ok(_)))
-            || passes.surveyed.turns_tool;
-        how.prediction.is_some()
+        let planes = match crate::job::plane_kind(passes.machine, passes.mode, how.dialect) {
+            Some(Ok(kind)) if how.shapes.planes && !passes.surveyed.turns_tool => Some(kind),
+            _ => None,
+        };
+        (how.prediction.is_some()
             && !program.three_passes
             && builtin
-            && !(program.block_numbers && how.dialect.numbered_blocks)
-            && no_planes
+            && !(program.block_numbers && how.dialect.numbered_blocks))
+            .then_some(planes)
     }
 
     /// The writing pass: the stages again, the motion program in its final frame, formatted and
@@ -688,11 +716,15 @@ fn predicted_time(c: &Concluded) -> Option<(f64, f64, usize)> {
     c.prediction.as_ref().map(|p| (p.cycle_time, p.time_lost, p.slowdowns))
 }
 
-/// The prediction pass writing the program as it goes (see [`Passes::speculates`]).
+/// The prediction pass writing the program as it goes (see [`Writer::speculates`]).
 struct Speculation<'p, 'a> {
     passes: &'p Passes<'a>,
-    /// Until the pass ends.
+    /// The working planes guessed for the 3+2 set-ups (see [`Writer::speculates`]).
+    planes: Option<postpro_motion::PlaneKind>,
+    /// Until the pass ends; then a fresh one where the guess of working planes proved wrong.
     predicting: Option<Predicting<'a>>,
+    /// The guess of working planes proved wrong: the pass is to be made again without it.
+    wasted: bool,
     /// The travel check's warnings.
     travel: Vec<postpro_motion::Warning>,
     passed: Option<Passed>,
@@ -707,7 +739,7 @@ impl postpro_emit::DeferredBody for Speculation<'_, '_> {
         let passes = self.passes;
         let Some(predicting) = self.predicting.as_mut() else { return Ok(()) };
         let mut checked = passes.checked(sink);
-        let passed = passes.prediction_pass(&mut PredictAndWrite { predicting, next: &mut checked })?;
+        let passed = passes.prediction_pass(self.planes, &mut PredictAndWrite { predicting, next: &mut checked })?;
         self.travel = checked.finish().map_err(Failure::Pass)?;
         self.passed = Some(passed);
         Ok(())
@@ -718,8 +750,16 @@ impl postpro_emit::DeferredBody for Speculation<'_, '_> {
         let passes = self.passes;
         passes.predicted_at.set(Some(passes.elapsed()));
         let as_surveyed = passed.as_surveyed();
-        let concluded = passes.conclude(passed, self.predicting.take())?;
-        if !writing || concluded.planes.is_some() || !as_surveyed {
+        if let Some(kind) = self.planes
+            && (!as_surveyed || passed.survey.as_ref().and_then(|s| passes.planes_of(s)) != Some(kind))
+        {
+            // Predicted in working planes the steps do not stand in as guessed: made again.
+            self.predicting = passes.predicting();
+            self.wasted = true;
+            return Ok(None);
+        }
+        let concluded = passes.conclude(passed, self.predicting.take(), self.planes)?;
+        if !writing || concluded.planes != self.planes || !as_surveyed {
             self.concluded = Some(concluded);
             return Ok(None);
         }
@@ -765,9 +805,9 @@ pub(crate) fn predict(request: &Request<'_>) -> Result<Streamed, ExitCode> {
     streamed
 }
 
-impl Passes<'_> {
+impl<'a> Passes<'a> {
     /// The prediction to make, as the request asks (none with `--no-predict`).
-    fn predicting(&self) -> Option<Predicting<'_>> {
+    fn predicting(&self) -> Option<Predicting<'a>> {
         let (kin, mode) = (self.pass.kin, self.mode);
         let timing =
             if mode.feeds_the_tip() { postpro_predict::Timing::TipFeed } else { postpro_predict::Timing::AxisFeed };
@@ -800,7 +840,7 @@ impl Passes<'_> {
             Failure::Refused(message) => fail(&message),
         };
         let mut checked = self.checked(&mut p);
-        let mut passed = self.prediction_pass(&mut checked).map_err(failed)?;
+        let mut passed = self.prediction_pass(None, &mut checked).map_err(failed)?;
         let mut travel = checked.finish().map_err(|e| (self.render)(e))?;
         let survey = passed.survey.take().unwrap_or_default();
         let passed = match self.planes_of(&survey) {
@@ -1085,7 +1125,7 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
     };
     let writer = Writer { passes, program, options };
     let output = program.output;
-    if writer.speculates() {
+    if writer.speculates().is_some() {
         progress.set_weights(&[1, 10]);
     }
     progress.pass(1, if how.prediction.is_some() { "predicting the feed" } else { "solving the kinematics" });

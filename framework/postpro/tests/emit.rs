@@ -175,36 +175,52 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
     std::fs::write(dir.join("wiggle.cl"), &set_ups).expect("write");
     std::fs::write(dir.join("still.cl"), set_ups.replace(&wiggle("0.0000000001"), &wiggle("0.0000000")))
         .expect("write");
-    let cases: &[(&str, &str, &[&str], usize)] = &[
-        ("hypar-5axis.cl", "mikron", &["--mode", "g1"], 2),
-        ("hypar-5axis.cl", "mikron", &["--mode", "tcp", "--tcp-orientation", "vectors"], 2),
-        ("hypar-5axis.cl", "mikron", &["--mode", "bspline"], 2),
-        ("bicubic-5axis.cl", "mikron", &["--mode", "inverse-time"], 2),
-        ("bicubic-5axis.cl", "maho600e", &[], 2),
-        ("hypar-5axis.cl", "mikron", &["--dialect", "linuxcnc"], 2),
-        ("manta-5axis.cl", "nutating", &[], 2),
-        ("hypar-5axis.cl", "mikron", &["--block-numbers"], 2),
-        ("hypar-5axis.cl", "mikron", &["--block-numbers", "--mode", "bspline"], 2),
-        ("bicubic-5axis.cl", "maho600e", &["--block-numbers"], 2),
-        ("insert.cl", "mikron", &["--block-numbers", "--insert", "verbatim"], 2),
-        ("insert.cl", "mikron", &["--block-numbers"], 2),
-        ("hypar-5axis.cl", "mikron", &["--block-numbers", "--dialect", "heidenhain"], 3),
-        ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain"], 2),
-        ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain", "--mode", "tcp", "--tcp-orientation", "vectors"], 2),
+    // The file, the machine, the options, and the passes: as it goes, and with `--three-passes`.
+    type Case<'a> = (&'a str, &'a str, &'a [&'a str], (usize, usize));
+    let cases: &[Case<'_>] = &[
+        ("hypar-5axis.cl", "mikron", &["--mode", "g1"], (2, 3)),
+        ("hypar-5axis.cl", "mikron", &["--mode", "tcp", "--tcp-orientation", "vectors"], (2, 3)),
+        ("hypar-5axis.cl", "mikron", &["--mode", "bspline"], (2, 3)),
+        ("bicubic-5axis.cl", "mikron", &["--mode", "inverse-time"], (2, 3)),
+        ("bicubic-5axis.cl", "maho600e", &[], (2, 3)),
+        ("hypar-5axis.cl", "mikron", &["--dialect", "linuxcnc"], (2, 3)),
+        ("manta-5axis.cl", "nutating", &[], (2, 3)),
+        ("hypar-5axis.cl", "mikron", &["--block-numbers"], (2, 3)),
+        ("hypar-5axis.cl", "mikron", &["--block-numbers", "--mode", "bspline"], (2, 3)),
+        ("bicubic-5axis.cl", "maho600e", &["--block-numbers"], (2, 3)),
+        ("insert.cl", "mikron", &["--block-numbers", "--insert", "verbatim"], (2, 3)),
+        ("insert.cl", "mikron", &["--block-numbers"], (2, 3)),
+        ("hypar-5axis.cl", "mikron", &["--block-numbers", "--dialect", "heidenhain"], (3, 3)),
+        ("hypar-5axis.cl", "mikron", &["--dialect", "heidenhain"], (2, 3)),
+        (
+            "hypar-5axis.cl",
+            "mikron",
+            &["--dialect", "heidenhain", "--mode", "tcp", "--tcp-orientation", "vectors"],
+            (2, 3),
+        ),
         // Rotary brakes: locked where the tool axes say, as the steps then prove.
-        ("hypar-5axis.cl", "haas-umc750", &[], 2),
-        ("bicubic-5axis.cl", "haas-umc750", &["--mode", "inverse-time"], 2),
-        ("still.cl", "haas-umc750", &["--plane-mode", "joints"], 2),
+        ("hypar-5axis.cl", "haas-umc750", &[], (2, 3)),
+        ("bicubic-5axis.cl", "haas-umc750", &["--mode", "inverse-time"], (2, 3)),
+        ("still.cl", "haas-umc750", &["--plane-mode", "joints"], (2, 3)),
         // The tool axes' guess proved wrong by the steps: the program written by a pass of its own.
-        ("wiggle.cl", "haas-umc750", &["--plane-mode", "joints"], 3),
-        ("hypar-3plus2.cl", "haas-umc750", &[], 4),
-        // Predicted again on the blocks in working planes, then written: four passes.
-        ("hypar-3plus2.cl", "mikron", &[], 4),
+        ("wiggle.cl", "haas-umc750", &["--plane-mode", "joints"], (3, 3)),
+        // Working planes where the tool axes say set-ups stand, as the steps then prove; a pass
+        // of their own predicts again on the blocks in the planes where the prediction pass was
+        // not in them (--three-passes: four passes).
+        ("hypar-3plus2.cl", "haas-umc750", &[], (2, 4)),
+        ("hypar-3plus2.cl", "mikron", &[], (2, 4)),
+        ("hypar-3plus2.cl", "maho600e", &["--mode", "inverse-time"], (2, 4)),
+        ("still.cl", "mikron", &[], (2, 4)),
+        // Predicted in working planes the steps do not stand in as guessed: predicted again
+        // without the guess, in the planes again, then written: five passes.
+        ("wiggle.cl", "haas-umc750", &[], (5, 4)),
+        ("wiggle.cl", "mikron", &[], (5, 4)),
     ];
     // What a run says, but for the name of its output and the times.
     let said = |o: &Output, out: &str| -> String {
         text(&o.stderr).lines().filter(|l| !l.starts_with("timing:")).collect::<Vec<_>>().join("\n").replace(out, "OUT")
     };
+    let mut commented = 0;
     for &(file, machine, args, passes) in cases {
         let case = format!("{file} on {machine} {}", args.join(" "));
         let run = |out: &str, extra: &[&str]| {
@@ -215,17 +231,21 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
         };
         let (two, three) = (run("two.nc", &[]), run("three.nc", &["--three-passes"]));
         assert!(two.status.success() && three.status.success(), "{case}: {}", text(&two.stderr));
+        let (passes, passes_alone) = passes;
         let timing = text(&two.stderr).lines().find(|l| l.starts_with("timing:")).unwrap_or_default().to_string();
         assert!(timing.contains(&format!("; {passes} passes")), "{case}: {timing}");
-        let three_passes = if passes == 4 { "; 4 passes" } else { "; 3 passes" };
-        assert!(text(&three.stderr).contains(three_passes), "{case}");
+        assert!(text(&three.stderr).contains(&format!("; {passes_alone} passes")), "{case}");
         let program = |name: &str| std::fs::read(dir.join(name)).expect("the program");
         assert!(program("two.nc") == program("three.nc"), "{case}: the programs differ");
         assert_eq!(said(&two, "two.nc"), said(&three, "three.nc"), "{case}");
-        if passes == 2 {
-            assert!(text(&program("two.nc")).contains("slowdown #1:"), "{case}: the slowdowns' comments are put in");
+        // Where the header names slowdowns, their comments are put in the body.
+        let written = text(&program("two.nc"));
+        if passes == 2 && written.contains("worst slowdown #") {
+            commented += 1;
+            assert!(written.contains("slowdown #1:"), "{case}: the slowdowns' comments are put in");
         }
     }
+    assert!(commented >= 15, "{commented} cases with comments put in");
     let left: Vec<String> = std::fs::read_dir(&dir)
         .expect("list")
         .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
