@@ -503,6 +503,17 @@ impl Passes<'_> {
         Ok(Concluded { summary, survey, shape, planes, prediction, annotations, repredicted })
     }
 
+    /// The working planes the 3+2 set-ups are guessed to stand in before the steps are surveyed:
+    /// the request's, where the dialect has them and no feed move turns the tool (else the
+    /// motion is simultaneous, and there is no set-up to speak of).
+    fn planes_guess(&self) -> Option<postpro_motion::PlaneKind> {
+        let how = self.how;
+        match crate::job::plane_kind(self.machine, self.mode, how.dialect) {
+            Some(Ok(kind)) if how.shapes.planes && !self.surveyed.turns_tool => Some(kind),
+            _ => None,
+        }
+    }
+
     /// The working planes the 3+2 set-ups the prediction pass surveyed (`survey`) are written in,
     /// if the request asks for planes and they stand in any.
     fn planes_of(&self, survey: &Survey) -> Option<postpro_motion::PlaneKind> {
@@ -657,10 +668,7 @@ impl Writer<'_, '_> {
     fn speculates(&self) -> Option<Option<postpro_motion::PlaneKind>> {
         let (passes, how, program) = (self.passes, self.passes.how, self.program);
         let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(program.template.1.as_str());
-        let planes = match crate::job::plane_kind(passes.machine, passes.mode, how.dialect) {
-            Some(Ok(kind)) if how.shapes.planes && !passes.surveyed.turns_tool => Some(kind),
-            _ => None,
-        };
+        let planes = passes.planes_guess();
         (how.prediction.is_some()
             && !program.three_passes
             && builtin
@@ -839,12 +847,24 @@ impl<'a> Passes<'a> {
             Failure::Emit(e) => fail(&report::render(&e)),
             Failure::Refused(message) => fail(&message),
         };
+        // In the working planes guessed, where the steps prove the guess; else again without it.
+        let mut ran_in = self.planes_guess();
         let mut checked = self.checked(&mut p);
-        let mut passed = self.prediction_pass(None, &mut checked).map_err(failed)?;
+        let mut passed = self.prediction_pass(ran_in, &mut checked).map_err(failed)?;
         let mut travel = checked.finish().map_err(|e| (self.render)(e))?;
+        if ran_in.is_some()
+            && !(passed.as_surveyed() && passed.survey.as_ref().and_then(|s| self.planes_of(s)) == ran_in)
+        {
+            ran_in = None;
+            progress.repeat_pass(1);
+            p = self.predicting().ok_or_else(|| fail("error: no prediction asked for\n"))?;
+            let mut checked = self.checked(&mut p);
+            passed = self.prediction_pass(None, &mut checked).map_err(failed)?;
+            travel = checked.finish().map_err(|e| (self.render)(e))?;
+        }
         let survey = passed.survey.take().unwrap_or_default();
         let passed = match self.planes_of(&survey) {
-            Some(kind) => {
+            Some(kind) if ran_in != Some(kind) => {
                 // The blocks in the working planes' frame: the prediction again, on them.
                 p = self.predicting().ok_or_else(|| fail("error: no prediction asked for\n"))?;
                 let mut checked = self.checked(&mut p);
@@ -854,7 +874,7 @@ impl<'a> Passes<'a> {
                 travel = checked.map_err(|e| (self.render)(e))?;
                 again
             }
-            None => passed,
+            _ => passed,
         };
         let done = p.predictor.finish(&p.blocks);
         p.take(done);

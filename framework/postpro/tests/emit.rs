@@ -2,6 +2,8 @@
 //! starts with, and the error cases (unknown machine, unreachable pose, unwritable output),
 //! which never leave a partial program nor clobber an existing one.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -157,24 +159,8 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
     let insert = hypar.replacen("FEDRAT/MMPM,2000.0000\n", "FEDRAT/MMPM,2000.0000\nINSERT/N5 M1\n", 1);
     assert_ne!(insert, hypar, "the insert goes in");
     std::fs::write(dir.join("insert.cl"), insert).expect("write");
-    // A tool axis that turns by 1e-10 at feed: a set-up for the rotary axes (which stand within
-    // 1e-9), simultaneous motion for the tool axes: the brakes' guess proves wrong.
-    let wiggle = |i: &str| format!("GOTO/20.0000,0.0000,10.0000,{i},0.0000000,1.0000000\n");
-    let set_ups = [
-        "LOAD/TOOL,1\nSPINDL/RPM,8000,CLW\nCOOLNT/ON\nRAPID\nGOTO/0.0000,0.0000,50.0000,0.0000000,0.0000000,1.0000000\n",
-        "FEDRAT/MMPM,1000.0000\nGOTO/0.0000,0.0000,10.0000,0.0000000,0.0000000,1.0000000\n",
-        &wiggle("0.0000000001"),
-        "RAPID\nGOTO/30.0000,0.0000,50.0000,0.0000000,0.5000000,0.8660254\n",
-        // Three corners at feed: a slowdown worth a comment.
-        "GOTO/40.0000,10.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
-        "GOTO/40.0000,30.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
-        "GOTO/60.0000,30.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
-        "GOTO/60.0000,10.0000,10.0000,0.0000000,0.5000000,0.8660254\nEND-OF-PATH\n",
-    ]
-    .concat();
-    std::fs::write(dir.join("wiggle.cl"), &set_ups).expect("write");
-    std::fs::write(dir.join("still.cl"), set_ups.replace(&wiggle("0.0000000001"), &wiggle("0.0000000")))
-        .expect("write");
+    std::fs::write(dir.join("wiggle.cl"), common::two_set_ups(true)).expect("write");
+    std::fs::write(dir.join("still.cl"), common::two_set_ups(false)).expect("write");
     // The file, the machine, the options, and the passes: as it goes, and with `--three-passes`.
     type Case<'a> = (&'a str, &'a str, &'a [&'a str], (usize, usize));
     let cases: &[Case<'_>] = &[

@@ -217,6 +217,8 @@ fn the_streamed_prediction_prints_what_the_whole_one_prints() {
         ],
     );
     let real = |name: &str| tests::shared_cl_dir().join(name).to_str().expect("a UTF-8 path").to_string();
+    // Set-ups the tool axes guess wrong: predicted in the planes, then again without them.
+    std::fs::write(dir.join("wiggle.cl"), common::two_set_ups(true)).expect("write");
     let (vmc_file, side, nurbs) = (
         real("steptools__STEPNode__Plane_1.cldata"),
         real("aamorim1913__AptPostProcessor__Teste-Metrologia.apt"),
@@ -233,6 +235,8 @@ fn the_streamed_prediction_prints_what_the_whole_one_prints() {
         ("hypar-3plus2.cl", "maho600e", &[]),
         // In working planes the blocks (and which of them are written) differ: the figures too.
         (&side, "haas-umc750", &[]),
+        ("wiggle.cl", "haas-umc750", &[]),
+        ("wiggle.cl", MACHINE, &[]),
         (&nurbs, "maho600e", &[]),
         (&vmc_file, "example-3axis-vmc", &[]),
         (CL, "example-3axis-vmc", &[]),

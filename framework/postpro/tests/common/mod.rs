@@ -55,3 +55,23 @@ pub(crate) fn files(dir: &Path) -> Vec<String> {
 pub(crate) fn number(field: &str) -> f64 {
     field.parse().unwrap_or_else(|_| panic!("`{field}` is a number"))
 }
+
+/// A CL file of two 3+2 set-ups: along Z, then tilted 30° about X with three corners at feed (a
+/// slowdown worth a comment). With `wiggle`, the tool axis of a feed move in the first turns by
+/// 1e-10: a set-up still for the rotary axes (which stand within 1e-9), simultaneous motion for
+/// the tool axes, which are what the main job guesses the set-ups from: a guess the steps prove
+/// wrong.
+pub(crate) fn two_set_ups(wiggle: bool) -> String {
+    let i = if wiggle { "0.0000000001" } else { "0.0000000" };
+    [
+        "LOAD/TOOL,1\nSPINDL/RPM,8000,CLW\nCOOLNT/ON\nRAPID\nGOTO/0.0000,0.0000,50.0000,0.0000000,0.0000000,1.0000000\n",
+        "FEDRAT/MMPM,1000.0000\nGOTO/0.0000,0.0000,10.0000,0.0000000,0.0000000,1.0000000\n",
+        &format!("GOTO/20.0000,0.0000,10.0000,{i},0.0000000,1.0000000\n"),
+        "RAPID\nGOTO/30.0000,0.0000,50.0000,0.0000000,0.5000000,0.8660254\n",
+        "GOTO/40.0000,10.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
+        "GOTO/40.0000,30.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
+        "GOTO/60.0000,30.0000,10.0000,0.0000000,0.5000000,0.8660254\n",
+        "GOTO/60.0000,10.0000,10.0000,0.0000000,0.5000000,0.8660254\nEND-OF-PATH\n",
+    ]
+    .concat()
+}
