@@ -595,12 +595,12 @@ impl Writer<'_, '_> {
     /// else (or where the 3+2 set-ups it finds are written in working planes) by a pass of its own.
     fn predict_and_write(&self, out: &mut dyn Write, predicting: Option<Predicting<'_>>) -> Result<Outcome, Failure> {
         let mut wasted = 0;
-        let concluded = match (predicting, self.speculates()) {
-            (Some(predicting), Some(planes)) => {
+        let concluded = match self.speculates() {
+            Some(planes) => {
                 let mut body = Speculation {
                     passes: self.passes,
                     planes,
-                    predicting: Some(predicting),
+                    predicting,
                     wasted: false,
                     travel: Vec::new(),
                     passed: None,
@@ -638,19 +638,16 @@ impl Writer<'_, '_> {
                     }
                     // Nothing was produced (the options or the template do not allow it), or the
                     // working planes guessed proved wrong: predicted (again) as without a guess.
-                    _ => match body.predicting {
-                        Some(predicting) => {
-                            if body.wasted {
-                                wasted = 1;
-                                self.passes.pass.progress.repeat_pass(1);
-                            }
-                            self.passes.predict(Some(predicting))?
+                    _ => {
+                        if body.wasted {
+                            wasted = 1;
+                            self.passes.pass.progress.repeat_pass(1);
                         }
-                        None => return Err(Failure::Refused(format!("error: the program was not made; {WRITTEN}\n"))),
-                    },
+                        self.passes.predict(body.predicting)?
+                    }
                 }
             }
-            (predicting, _) => self.passes.predict(predicting)?,
+            None => self.passes.predict(predicting)?,
         };
         let outcome = self.write_pass(out, concluded)?;
         Ok(Outcome { passes: outcome.passes + wasted, ..outcome })
@@ -658,9 +655,10 @@ impl Writer<'_, '_> {
 
     /// The working planes the prediction pass is to write the program in as it goes (`Some(None)`:
     /// none), when the program the writing pass would write can be the one it makes, but for the
-    /// slowdowns' comments, which can be put in their places afterwards: a prediction to write,
-    /// the dialect's own template, not both `N` words and a dialect that numbers its lines (either
-    /// is numbered anew as the body is copied, not both at once). The planes are guessed where the
+    /// slowdowns' comments, which can be put in their places afterwards (with `--no-predict`, the
+    /// pass surveys the steps only, and writes): the dialect's own template, not both `N` words
+    /// and a dialect that numbers its lines (either is numbered anew as the body is copied, not
+    /// both at once). The planes are guessed where the
     /// dialect has them and no feed move turns the tool (the frame of a 3+2 set-up's blocks in
     /// one depends on them); where the rotary brakes lock, from the tool axes. Both are known
     /// only at the end of the pass: a wrong guess of brakes leaves the program to a pass of its
@@ -669,11 +667,7 @@ impl Writer<'_, '_> {
         let (passes, how, program) = (self.passes, self.passes.how, self.program);
         let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(program.template.1.as_str());
         let planes = passes.planes_guess();
-        (how.prediction.is_some()
-            && !program.three_passes
-            && builtin
-            && !(program.block_numbers && how.dialect.numbered_blocks))
-            .then_some(planes)
+        (!program.three_passes && builtin && !(program.block_numbers && how.dialect.numbered_blocks)).then_some(planes)
     }
 
     /// The writing pass: the stages again, the motion program in its final frame, formatted and
@@ -745,9 +739,13 @@ impl postpro_emit::DeferredBody for Speculation<'_, '_> {
 
     fn produce(&mut self, sink: &mut dyn MotionSink) -> Result<(), Failure> {
         let passes = self.passes;
-        let Some(predicting) = self.predicting.as_mut() else { return Ok(()) };
         let mut checked = passes.checked(sink);
-        let passed = passes.prediction_pass(self.planes, &mut PredictAndWrite { predicting, next: &mut checked })?;
+        let passed = match self.predicting.as_mut() {
+            Some(predicting) => {
+                passes.prediction_pass(self.planes, &mut PredictAndWrite { predicting, next: &mut checked })?
+            }
+            None => passes.prediction_pass(self.planes, &mut checked)?,
+        };
         self.travel = checked.finish().map_err(Failure::Pass)?;
         self.passed = Some(passed);
         Ok(())

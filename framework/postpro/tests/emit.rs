@@ -196,6 +196,10 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
         ("hypar-3plus2.cl", "haas-umc750", &[], (2, 4)),
         ("hypar-3plus2.cl", "mikron", &[], (2, 4)),
         ("hypar-3plus2.cl", "maho600e", &["--mode", "inverse-time"], (2, 4)),
+        // Without a prediction, the same: the pass that surveys the steps writes the program.
+        ("hypar-5axis.cl", "mikron", &["--no-predict"], (2, 3)),
+        ("hypar-3plus2.cl", "haas-umc750", &["--no-predict"], (2, 3)),
+        ("wiggle.cl", "mikron", &["--no-predict"], (4, 3)),
         ("still.cl", "mikron", &[], (2, 4)),
         // Predicted in working planes the steps do not stand in as guessed: predicted again
         // without the guess, in the planes again, then written: five passes.
