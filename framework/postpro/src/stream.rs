@@ -4,7 +4,8 @@
 //! 1. **Survey**: the reader's items, their targets and the policy's first pass (the branch
 //!    graph), the tools and their changes, whether the tool turns while cutting (the mode `auto`
 //!    picks), what the reader passed over, the 3+2 set-ups guessed from the tool axes (where the
-//!    rotary brakes lock, for the prediction pass to write; kept only where the steps agree).
+//!    rotary brakes lock and the working planes stand, for the prediction pass to write in; kept
+//!    only where the steps agree).
 //! 2. **Prediction**: the items again, the policy's second pass, the linearization and the motion
 //!    program, each a stage handing on to the next; the prediction reads the blocks as they come
 //!    and keeps its look-ahead; the steps are surveyed for the 3+2 set-ups.
@@ -21,8 +22,9 @@
 //!
 //! Where the 3+2 set-ups stand in working planes the prediction pass was not in, whose frame
 //! changes their blocks, a pass of its own predicts again on the blocks in the planes before the
-//! writing: the header and comments are those of the program written. `postpro predict` runs the passes but the writing
-//! ([`predict`]); `postpro solve` the survey and the stages up to the linearization ([`solve`]).
+//! writing: the header and comments are those of the program written. `postpro predict` runs
+//! the passes but the writing ([`predict`]); `postpro solve` the survey and the stages up to the
+//! linearization ([`solve`]).
 //!
 //! Every pass runs the same stages on the same items, so the step and block numbers the
 //! prediction's marks name are those of the program written. An error in any pass leaves
@@ -132,7 +134,8 @@ struct Surveyed {
     turns_tool: bool,
     moves: bool,
     inserts: (usize, Option<Span>),
-    /// The 3+2 set-ups guessed from the tool axes, for a machine whose rotary axes have brakes.
+    /// The 3+2 set-ups guessed from the tool axes, for a pass that writes where the rotary brakes
+    /// lock or the working planes stand before its steps say.
     stretches: AxisStretches,
 }
 
@@ -658,11 +661,11 @@ impl Writer<'_, '_> {
     /// slowdowns' comments, which can be put in their places afterwards (with `--no-predict`, the
     /// pass surveys the steps only, and writes): the dialect's own template, not both `N` words
     /// and a dialect that numbers its lines (either is numbered anew as the body is copied, not
-    /// both at once). The planes are guessed where the
-    /// dialect has them and no feed move turns the tool (the frame of a 3+2 set-up's blocks in
-    /// one depends on them); where the rotary brakes lock, from the tool axes. Both are known
-    /// only at the end of the pass: a wrong guess of brakes leaves the program to a pass of its
-    /// own, a wrong guess of planes the prediction too.
+    /// both at once). The planes are guessed where the dialect has them and no feed move turns
+    /// the tool (the frame of a 3+2 set-up's blocks in one depends on them); where the rotary
+    /// brakes lock, from the tool axes. Both are known only at the end of the pass: a wrong guess
+    /// of brakes leaves the program to a pass of its own, a wrong guess of planes the prediction
+    /// too.
     fn speculates(&self) -> Option<Option<postpro_motion::PlaneKind>> {
         let (passes, how, program) = (self.passes, self.passes.how, self.program);
         let builtin = postpro_emit::builtin_template(how.dialect.name) == Some(program.template.1.as_str());
