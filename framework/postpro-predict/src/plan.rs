@@ -359,9 +359,11 @@ pub struct Stepper {
     k: usize,
     /// The first counted piece at or after `k`, as an ordinal of [`Track::counted`].
     counted: usize,
-    /// Cruising on this piece at its cap, nothing ahead within braking reach until the
-    /// parameter reaches this value: the next steps need no scan of the junctions.
-    cruise: Option<(usize, f64)>,
+    /// Cruising on this piece at its cap, nothing ahead within braking reach while the steps end
+    /// under `.2`: the piece, where the steps taken at once end (`.1`, before the piece's end:
+    /// the step that crosses it is taken alone, to report the crossing) and `.2`; the steps up
+    /// to it need no scan of the junctions (the junctions before it have caps above the speed).
+    cruise: Option<(usize, f64, f64)>,
     started: bool,
     done: bool,
     /// Enough for any motion: a run away loop would be a bug; stop it rather than hang.
@@ -636,8 +638,14 @@ impl Stepper {
     /// Where the cruise ends (the parameter the steps stay under), when the motion cruises at the
     /// cap of the piece it is on (`here`) with nothing ahead within braking reach.
     fn cruise_until(&self, here: &Piece) -> Option<f64> {
-        let (piece, until) = self.cruise?;
-        (piece == self.k && self.a == 0.0 && self.v == here.velocity).then_some(until)
+        self.cruising(here).map(|(until, _)| until)
+    }
+
+    /// Where the steps taken at once end and where the cruise ends (see [`Self::cruise`]), when
+    /// the motion cruises at the cap of the piece it is on (`here`).
+    fn cruising(&self, here: &Piece) -> Option<(f64, f64)> {
+        let (piece, until, beyond) = self.cruise?;
+        (piece == self.k && self.a == 0.0 && self.v == here.velocity).then_some((until, beyond))
     }
 
     /// The last piece the CNC sees from the current one (the window's end; the track's end), if
@@ -669,9 +677,10 @@ impl Stepper {
             return None;
         }
         let here = &track.pieces[self.k];
-        // Cruising where nothing can bind yet: the same step again.
-        if let Some(until) = self.cruise_until(here)
-            && u + v * h < until
+        // Cruising where nothing can bind yet: the same step again, up to the one that crosses
+        // into the next piece (the scan then sets the cruise there).
+        if let Some((_, beyond)) = self.cruising(here)
+            && u + v * h < beyond
         {
             return Some((0.0, here.velocity_limit, false));
         }
@@ -816,8 +825,8 @@ impl Stepper {
             m += 1;
         }
         self.cruise = (j == 0.0 && a == 0.0 && v == p.velocity && !could_bind).then(|| {
-            let until = comes_into_reach.unwrap_or(f64::NEG_INFINITY).min(self.ends[self.k]) - v * h;
-            (self.k, until)
+            let beyond = comes_into_reach.unwrap_or(f64::NEG_INFINITY);
+            (self.k, beyond.min(self.ends[self.k]) - v * h, beyond - v * h)
         });
         Some((j, limit, ahead))
     }
