@@ -625,7 +625,7 @@ impl Stepper {
     /// The periods of a cruise the next steps would take one at a time with nothing to decide (at
     /// least two), if the motion cruises.
     fn cruise_periods(&self, track: &Track) -> Option<u64> {
-        let until = self.cruise_until(track.pieces.get(self.k)?)?;
+        let (until, _) = self.cruising(track.pieces.get(self.k)?)?;
         if self.v <= 0.0 {
             return None;
         }
@@ -635,14 +635,9 @@ impl Stepper {
         (n >= 2).then_some(n)
     }
 
-    /// Where the cruise ends (the parameter the steps stay under), when the motion cruises at the
-    /// cap of the piece it is on (`here`) with nothing ahead within braking reach.
-    fn cruise_until(&self, here: &Piece) -> Option<f64> {
-        self.cruising(here).map(|(until, _)| until)
-    }
-
-    /// Where the steps taken at once end and where the cruise ends (see [`Self::cruise`]), when
-    /// the motion cruises at the cap of the piece it is on (`here`).
+    /// Where the steps taken at once end and where the cruise ends (the parameters the steps
+    /// stay under, see [`Self::cruise`]), when the motion cruises at the cap of the piece it is
+    /// on (`here`) with nothing ahead within braking reach.
     fn cruising(&self, here: &Piece) -> Option<(f64, f64)> {
         let (piece, until, beyond) = self.cruise?;
         (piece == self.k && self.a == 0.0 && self.v == here.velocity).then_some((until, beyond))

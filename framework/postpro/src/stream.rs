@@ -517,6 +517,12 @@ impl Passes<'_> {
         }
     }
 
+    /// True when the steps `passed` surveyed stand in the working planes `planes` the pass ran in
+    /// and give every answer it took from the guessed set-ups: its blocks are those to predict.
+    fn in_planes_as_guessed(&self, passed: &Passed, planes: Option<postpro_motion::PlaneKind>) -> bool {
+        passed.as_surveyed() && passed.survey.as_ref().and_then(|s| self.planes_of(s)) == planes
+    }
+
     /// The working planes the 3+2 set-ups the prediction pass surveyed (`survey`) are written in,
     /// if the request asks for planes and they stand in any.
     fn planes_of(&self, survey: &Survey) -> Option<postpro_motion::PlaneKind> {
@@ -759,9 +765,7 @@ impl postpro_emit::DeferredBody for Speculation<'_, '_> {
         let passes = self.passes;
         passes.predicted_at.set(Some(passes.elapsed()));
         let as_surveyed = passed.as_surveyed();
-        if let Some(kind) = self.planes
-            && (!as_surveyed || passed.survey.as_ref().and_then(|s| passes.planes_of(s)) != Some(kind))
-        {
+        if self.planes.is_some() && !passes.in_planes_as_guessed(&passed, self.planes) {
             // Predicted in working planes the steps do not stand in as guessed: made again.
             self.predicting = passes.predicting();
             self.wasted = true;
@@ -853,9 +857,7 @@ impl<'a> Passes<'a> {
         let mut checked = self.checked(&mut p);
         let mut passed = self.prediction_pass(ran_in, &mut checked).map_err(failed)?;
         let mut travel = checked.finish().map_err(|e| (self.render)(e))?;
-        if ran_in.is_some()
-            && !(passed.as_surveyed() && passed.survey.as_ref().and_then(|s| self.planes_of(s)) == ran_in)
-        {
+        if ran_in.is_some() && !self.in_planes_as_guessed(&passed, ran_in) {
             ran_in = None;
             progress.repeat_pass(1);
             p = self.predicting().ok_or_else(|| fail("error: no prediction asked for\n"))?;
