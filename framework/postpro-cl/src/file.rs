@@ -165,13 +165,19 @@ impl ClFile {
     /// a solution), by one more reading of the file from its start: each look-up reads on from
     /// the last, where [`ClFile::line_col`] reads a stretch of the file every time.
     pub fn lines(&self) -> Result<Lines, Error> {
+        let file = self.reopen()?;
+        let reader = std::io::BufReader::with_capacity(BLOCK, file);
+        Ok(Lines { reader, latin1: self.latin1, len: self.len, text: 0, line: 1, column: 0, after_cr: false })
+    }
+
+    /// The file opened again for a reading, unless it changed since it was first read.
+    fn reopen(&self) -> Result<std::fs::File, Error> {
         let io = |source| Error::Io { path: self.name.clone(), source };
         let file = std::fs::File::open(&self.path).map_err(io)?;
         if stamp_of(&file).map_err(io)? != self.stamp {
             return Err(Error::Changed { path: self.name.clone() });
         }
-        let reader = std::io::BufReader::with_capacity(BLOCK, file);
-        Ok(Lines { reader, latin1: self.latin1, len: self.len, text: 0, line: 1, column: 0, after_cr: false })
+        Ok(file)
     }
 
     /// The checkpoints, found by reading the file once (`None` if it cannot be read).
@@ -235,10 +241,7 @@ impl ClFile {
     ) -> Result<(), Error> {
         let io = |source| Error::Io { path: self.name.clone(), source };
         let changed = || Error::Changed { path: self.name.clone() };
-        let mut file = std::fs::File::open(&self.path).map_err(io)?;
-        if stamp_of(&file).map_err(io)? != self.stamp {
-            return Err(changed());
-        }
+        let mut file = self.reopen()?;
         if from.file > 0 {
             std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(from.file)).map_err(io)?;
         }
