@@ -854,17 +854,17 @@ impl<'a> Passes<'a> {
         };
         // In the working planes guessed, where the steps prove the guess; else again without it.
         let mut ran_in = self.planes_guess();
-        let mut checked = self.checked(&mut p);
-        let mut passed = self.prediction_pass(ran_in, &mut checked).map_err(failed)?;
-        let mut travel = checked.finish().map_err(|e| (self.render)(e))?;
-        if ran_in.is_some() && !self.in_planes_as_guessed(&passed, ran_in) {
+        let (mut passed, mut travel) = loop {
+            let mut checked = self.checked(&mut p);
+            let passed = self.prediction_pass(ran_in, &mut checked).map_err(failed)?;
+            let travel = checked.finish().map_err(|e| (self.render)(e))?;
+            if ran_in.is_none() || self.in_planes_as_guessed(&passed, ran_in) {
+                break (passed, travel);
+            }
             ran_in = None;
             progress.repeat_pass(1);
             p = self.predicting().ok_or_else(|| fail("error: no prediction asked for\n"))?;
-            let mut checked = self.checked(&mut p);
-            passed = self.prediction_pass(None, &mut checked).map_err(failed)?;
-            travel = checked.finish().map_err(|e| (self.render)(e))?;
-        }
+        };
         let survey = passed.survey.take().unwrap_or_default();
         let passed = match self.planes_of(&survey) {
             Some(kind) if ran_in != Some(kind) => {
