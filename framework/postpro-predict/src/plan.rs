@@ -790,6 +790,9 @@ impl Stepper {
                 continue;
             }
             could_bind = true;
+            // At the strongest braking already (the jerk cannot go lower), held by a cap ahead
+            // of the same kind: this junction can change neither the step nor what it reports.
+            let settled = j == floor && ahead && limit == why;
             // The room left at the junction once the speed is within its cap, from the state
             // after jerk `jj`.
             // A state on the braking curve itself fits: the rounding of one step must not push it
@@ -799,20 +802,25 @@ impl Stepper {
                 room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk) + 1e-9 * (1.0 + room.abs())
             };
             let slack = |jj: f64| slack_of(advance(u, v, a, jj, h));
-            let at_j = slack_of((u1, v1, a1));
-            if at_j < 0.0 {
+            if !settled
+                && let at_j = slack_of((u1, v1, a1))
+                && at_j < 0.0
+            {
                 limit = why;
                 ahead = true;
-                let at_floor = slack(floor);
-                j = if at_floor >= 0.0 {
-                    largest_fitting(&slack, (floor, at_floor), (j, at_j))
-                } else {
-                    // The strongest braking does not fit either: the state braked too hard
-                    // already, and easing is what helps. The best in the interval.
-                    largest_fitting_unimodal(&slack, (floor, at_floor), (j, at_j))
-                };
-                (u1, v1, a1) = advance(u, v, a, j, h);
-                peak = peak_of(v1, a1, j_path);
+                // At the strongest braking already, nothing lower to take.
+                if j != floor {
+                    let at_floor = slack(floor);
+                    j = if at_floor >= 0.0 {
+                        largest_fitting(&slack, (floor, at_floor), (j, at_j))
+                    } else {
+                        // The strongest braking does not fit either: the state braked too hard
+                        // already, and easing is what helps. The best in the interval.
+                        largest_fitting_unimodal(&slack, (floor, at_floor), (j, at_j))
+                    };
+                    (u1, v1, a1) = advance(u, v, a, j, h);
+                    peak = peak_of(v1, a1, j_path);
+                }
             }
             if stop {
                 break;
