@@ -14,7 +14,7 @@
 use nalgebra::{Isometry3, Matrix3, Point3, Unit, UnitQuaternion, Vector3};
 use postpro_machine::model::{AxisKind, Machine};
 
-use crate::pose::{Joints, Pose};
+use crate::pose::{Joints, Pose, PoseRate};
 use crate::solver::{Kinematics, Solution, Solutions};
 
 /// Below this, a vector is treated as zero (unit vectors; about 1e-6° of angle).
@@ -45,6 +45,27 @@ impl Rotary {
 fn rodrigues(w: &Unit<Vector3<f64>>, v: &Vector3<f64>, s: f64, c: f64) -> Vector3<f64> {
     let w = w.as_ref();
     v * c + w.cross(v) * s + w * (w.dot(v) * (1.0 - c))
+}
+
+/// The tool tip and axis carried through the chain with their rates (forward mode).
+#[derive(Default)]
+struct Moving {
+    tip: Point3<f64>,
+    axis: Vector3<f64>,
+    tip_rate: Vector3<f64>,
+    axis_rate: Vector3<f64>,
+}
+
+impl Moving {
+    /// Turns about `r` by the angle whose sine and cosine are `(s, c)`, turning at rate `w`: a
+    /// point `x` moves to `q + R(x − q)` at `R ẋ + w ω × R(x − q)`.
+    fn turn(&mut self, r: &Rotary, (s, c): (f64, f64), w: f64) {
+        let arm = rodrigues(&r.omega, &(self.tip - r.q), s, c);
+        self.tip_rate = rodrigues(&r.omega, &self.tip_rate, s, c) + r.omega.cross(&arm) * w;
+        self.tip = r.q + arm;
+        self.axis = rodrigues(&r.omega, &self.axis, s, c);
+        self.axis_rate = rodrigues(&r.omega, &self.axis_rate, s, c) + r.omega.cross(&self.axis) * w;
+    }
 }
 
 /// Where the rotary axes sit.
@@ -239,6 +260,25 @@ impl Kinematics for Chain {
         }
         let inverse = &self.part_origin_inverse;
         Pose { tip: inverse * tip, axis: Unit::new_normalize(inverse.rotation * axis) }
+    }
+
+    fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {
+        let mut m = Moving { tip: self.tip0, axis: self.k0.into_inner(), ..Moving::default() };
+        for r in self.tool.iter().rev() {
+            m.turn(r, joints[r.index].sin_cos(), rates[r.index]);
+        }
+        for &i in &self.linear {
+            let direction = self.machine.axes[i].direction.into_inner();
+            m.tip += direction * joints[i];
+            m.tip_rate += direction * rates[i];
+        }
+        // The part side turns the other way (E(p)⁻¹).
+        for r in &self.part {
+            let (s, c) = joints[r.index].sin_cos();
+            m.turn(r, (-s, c), -rates[r.index]);
+        }
+        let rotation = &self.part_origin_inverse.rotation;
+        PoseRate { tip: rotation * m.tip_rate, axis: rotation * m.axis_rate }
     }
 
     fn inverse(&self, pose: &Pose, out: &mut Solutions) {

@@ -15,7 +15,7 @@ use nalgebra::Vector3;
 use postpro_machine::model::{ClosedForm, Machine};
 
 use crate::chain::{Chain, wrap};
-use crate::pose::{Joints, Pose};
+use crate::pose::{Joints, Pose, PoseRate};
 use crate::solver::{Kinematics, Solution, Solutions};
 
 /// Which machine axis the tilt turns about.
@@ -81,6 +81,10 @@ impl Kinematics for TableTableClosedForm {
 
     fn forward(&self, joints: &Joints) -> Pose {
         self.chain.forward(joints)
+    }
+
+    fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {
+        self.chain.forward_rate(joints, rates)
     }
 
     fn inverse(&self, pose: &Pose, out: &mut Solutions) {

@@ -31,7 +31,7 @@ pub use policy::{
     BranchGraph, Choice, Collected, Decision, Jump, Noted, Placer, Policy, SolveError, Solved, Step, StepKind,
     StepSink, Target, choose,
 };
-pub use pose::{Joints, MAX_AXES, Pose};
+pub use pose::{Joints, MAX_AXES, Pose, PoseRate};
 pub use solver::{Kinematics, Solution, Solutions, solver_for};
 pub use tool::{LengthFrom, Stretches, ToolLength, ToolPlacer, solve_with_tools, tool_changes};
 
@@ -98,6 +98,63 @@ mod tests {
         round_trip(solver_for(&mikron).as_ref(), 40);
         let maho = testing::maho(SolverKind::ClosedForm(ClosedForm::Maho600e));
         round_trip(solver_for(&maho).as_ref(), 40);
+    }
+
+    /// A machine's kinematics with the trait's own `forward_rate` (the central difference).
+    struct ByDifference<'a>(&'a dyn Kinematics);
+
+    impl Kinematics for ByDifference<'_> {
+        fn machine(&self) -> &postpro_machine::model::Machine {
+            self.0.machine()
+        }
+        fn forward(&self, joints: &Joints) -> Pose {
+            self.0.forward(joints)
+        }
+        fn inverse(&self, pose: &Pose, out: &mut Solutions) {
+            self.0.inverse(pose, out);
+        }
+        fn inverse_holding(&self, pose: &Pose, free_axis: usize, value: f64) -> Option<Joints> {
+            self.0.inverse_holding(pose, free_axis, value)
+        }
+        fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints {
+            self.0.place(pose, rotaries)
+        }
+    }
+
+    #[test]
+    fn the_rate_of_the_forward_kinematics_is_its_derivative() {
+        let mikron = testing::mikron(SolverKind::ClosedForm(ClosedForm::MikronUcp710));
+        let solvers = [
+            Chain::new(testing::mikron(SolverKind::Generic)),
+            Chain::new(testing::maho(SolverKind::Generic)),
+            Chain::new(testing::head_table()),
+            Chain::new(testing::nutating()),
+        ];
+        let closed = solver_for(&mikron);
+        let mut kins: Vec<&dyn Kinematics> = solvers.iter().map(|c| c as &dyn Kinematics).collect();
+        kins.push(closed.as_ref());
+        for kin in kins {
+            let longer = ToolLength::new(kin, kin.machine().chain.tool_length + 35.0);
+            for kin in [kin, &longer] {
+                for k in 0..20 {
+                    let t = f64::from(k) * 0.41;
+                    let joints = Joints::from_slice(&[
+                        10.0 * t.cos(),
+                        t - 5.0,
+                        3.0 * t.sin(),
+                        0.7 * (1.3 * t).sin(),
+                        2.0 * (0.9 * t).cos(),
+                    ]);
+                    let rates = Joints::from_slice(&[0.3, -1.2, 0.5, 0.8 * t.cos(), -0.6]);
+                    let exact = kin.forward_rate(&joints, &rates);
+                    let by_difference = ByDifference(kin).forward_rate(&joints, &rates);
+                    assert!((exact.tip - by_difference.tip).norm() < 1e-5, "{exact:?} vs {by_difference:?}");
+                    assert!((exact.axis - by_difference.axis).norm() < 1e-7, "{exact:?} vs {by_difference:?}");
+                    // Not a trivial agreement: the tip does move, and it turns.
+                    assert!(exact.tip.norm() > 0.1 && exact.axis.norm() > 0.1);
+                }
+            }
+        }
     }
 
     #[test]

@@ -11,6 +11,16 @@ pub struct Pose {
     pub axis: Unit<Vector3<f64>>,
 }
 
+/// How fast a pose changes: the tip's velocity and the tool axis's rate of turn (per unit of
+/// whatever parameter the axes move along).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PoseRate {
+    /// The tip's velocity, mm per unit.
+    pub tip: Vector3<f64>,
+    /// The tool axis's derivative (orthogonal to the axis), per unit.
+    pub axis: Vector3<f64>,
+}
+
 /// The most axes a machine may have: three linear and two rotary (3-, 4- and 5-axis machines).
 pub const MAX_AXES: usize = 5;
 

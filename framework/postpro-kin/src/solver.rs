@@ -5,7 +5,7 @@ use postpro_machine::model::{Machine, SolverKind};
 
 use crate::chain::Chain;
 use crate::closed::TableTableClosedForm;
-use crate::pose::{Joints, Pose};
+use crate::pose::{Joints, Pose, PoseRate};
 
 /// One inverse solution.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,6 +80,30 @@ pub trait Kinematics: Send + Sync {
     /// (their tool axis is whatever those angles give): the linear axes from the forward
     /// kinematics.
     fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints;
+
+    /// How fast the tool tip and the tool axis move in the part frame when the axes move from
+    /// `joints` at `rates`: the derivative of [`Self::forward`] along `rates`. By default a
+    /// central difference of it (steps of 1e-5 mm or rad on the fastest axis); the generic chain
+    /// differentiates exactly.
+    fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {
+        let fastest = rates.as_slice().iter().fold(0.0_f64, |m, r| m.max(r.abs()));
+        if fastest == 0.0 || !fastest.is_finite() {
+            return PoseRate::default();
+        }
+        let h = 1e-5 / fastest;
+        let along = |t: f64| {
+            let mut j = *joints;
+            for (x, r) in j.as_mut_slice().iter_mut().zip(rates.as_slice()) {
+                *x += t * r;
+            }
+            self.forward(&j)
+        };
+        let (before, after) = (along(-h), along(h));
+        PoseRate {
+            tip: (after.tip - before.tip) / (2.0 * h),
+            axis: (after.axis.into_inner() - before.axis.into_inner()) / (2.0 * h),
+        }
+    }
 }
 
 /// The solver a machine definition asks for. `solver: plugin` gets the generic chain of the

@@ -11,7 +11,7 @@ use postpro_machine::model::Machine;
 
 use crate::linearize::{Linearizer, Linearizing, Shape};
 use crate::policy::{BranchGraph, Collected, Placer, Policy, SolveError, Solved, StepSink, Target};
-use crate::pose::{Joints, Pose};
+use crate::pose::{Joints, Pose, PoseRate};
 use crate::solver::{Kinematics, Solutions};
 use crate::targets;
 
@@ -42,6 +42,11 @@ impl Kinematics for ToolLength<'_> {
     fn forward(&self, joints: &Joints) -> Pose {
         let p = self.inner.forward(joints);
         Pose { tip: p.tip - p.axis.into_inner() * self.extra, axis: p.axis }
+    }
+
+    fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {
+        let r = self.inner.forward_rate(joints, rates);
+        PoseRate { tip: r.tip - r.axis * self.extra, axis: r.axis }
     }
 
     fn inverse(&self, pose: &Pose, out: &mut Solutions) {

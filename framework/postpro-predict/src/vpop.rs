@@ -317,10 +317,8 @@ fn curve_piece(
                 w[order] = w[order].max(d[order + 1][a].abs());
             }
         }
-        // The tip's rate along the parameter, from the forward kinematics.
-        let h = 1e-3 * (to - from).max(1e-9);
-        let (x0, x1) = (kin.forward(&cursor.at(s - h)).tip, kin.forward(&cursor.at(s + h)).tip);
-        tip_rate = tip_rate.max((x1 - x0).norm() / (2.0 * h));
+        // The tip's rate along the parameter: the forward kinematics' derivative along `q_s`.
+        tip_rate = tip_rate.max(kin.forward_rate(&d[0], &d[1]).tip.norm());
     }
     let mut piece = Piece {
         length: to - from,
