@@ -33,11 +33,13 @@ pub(crate) mod work {
         pub(crate) static STEPS: Cell<u64> = const { Cell::new(0) };
         /// Junctions examined while choosing them.
         pub(crate) static JUNCTIONS: Cell<u64> = const { Cell::new(0) };
+        /// B-spline track segments looked at while forgetting the splines behind the motion.
+        pub(crate) static SEGMENTS: Cell<u64> = const { Cell::new(0) };
     }
 
     /// The counters' values, reset.
-    pub(crate) fn take() -> [u64; 2] {
-        [STEPS.with(|c| c.replace(0)), JUNCTIONS.with(|c| c.replace(0))]
+    pub(crate) fn take() -> [u64; 3] {
+        [STEPS.with(|c| c.replace(0)), JUNCTIONS.with(|c| c.replace(0)), SEGMENTS.with(|c| c.replace(0))]
     }
 }
 
@@ -45,9 +47,10 @@ pub(crate) mod work {
 macro_rules! tally {
     ($counter:ident) => {
         #[cfg(test)]
-        work::$counter.with(|c| c.set(c.get() + 1));
+        $crate::plan::work::$counter.with(|c| c.set(c.get() + 1));
     };
 }
+pub(crate) use tally;
 
 /// What holds the feed back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -366,6 +369,9 @@ pub struct Stepper {
     cruise: Option<(usize, f64, f64)>,
     started: bool,
     done: bool,
+    /// What the last step tried needs the track to hold before it can be decided: nothing
+    /// changes until then, so the steps are not tried again (a scan ahead may be long).
+    waiting: Option<Need>,
     /// Enough for any motion: a run away loop would be a bug; stop it rather than hang.
     guard: u64,
 }
@@ -392,6 +398,7 @@ impl Stepper {
             cruise: None,
             started: false,
             done: false,
+            waiting: None,
             guard: 0,
         }
     }
@@ -451,6 +458,12 @@ impl Stepper {
             self.started = true;
             self.t = track.dwell_at_start;
             observer.sample(&Sample::at_rest(self.t, 0.0, 0.0, 0, Limit::Stop, true));
+        }
+        if let Some(need) = self.waiting.take()
+            && let Some(need) = self.still_needs(need, track)
+        {
+            self.waiting = Some(need);
+            return Progress::Waiting;
         }
         let progress = self.steps(track, observer);
         if progress == Progress::Done {
@@ -656,11 +669,39 @@ impl Stepper {
         while self.counted < counted.end() && counted[self.counted] < self.k {
             self.counted += 1;
         }
-        match counted.get(self.counted + track.window - 1) {
+        let ordinal = self.counted + track.window - 1;
+        match counted.get(ordinal) {
             Some(&end) => Some(Some(end)),
             None if track.complete => Some(Some(track.len() - 1)),
-            None => None,
+            None => self.wait(Need::Counted(ordinal)),
         }
+    }
+
+    /// What of `need` the track does not hold yet (`None`: all of it), the junctions taken in
+    /// ([`Self::extend`]) looked at once each.
+    fn still_needs(&self, need: Need, track: &Track) -> Option<Need> {
+        let met = match need {
+            Need::Junction(i) => track.known(i),
+            Need::Counted(ordinal) => track.complete || ordinal < track.counted.end(),
+            Need::Beyond { mut next, at, last } => {
+                let known = &self.known;
+                while next < known.end() {
+                    let junction = &known[next];
+                    if junction.cap <= 0.0 || junction.at > at || Some(next) == last {
+                        return None;
+                    }
+                    next += 1;
+                }
+                return (!track.complete).then_some(Need::Beyond { next, at, last });
+            }
+        };
+        (!met).then_some(need)
+    }
+
+    /// Notes what the track must hold before the step can be decided, and says it cannot yet.
+    fn wait<T>(&mut self, need: Need) -> Option<T> {
+        self.waiting = Some(need);
+        None
     }
 
     /// The largest jerk for the next step, what bounds it, and whether that is a cap ahead;
@@ -669,7 +710,7 @@ impl Stepper {
         let h = self.h;
         let (u, v, a) = (self.u, self.v, self.a);
         if !track.known(self.k) {
-            return None;
+            return self.wait(Need::Junction(self.k));
         }
         let here = &track.pieces[self.k];
         // Cruising where nothing can bind yet: the same step again, up to the one that crosses
@@ -687,7 +728,7 @@ impl Stepper {
         loop {
             // Every junction this step may cross must be known.
             if !track.known(m) {
-                return None;
+                return self.wait(Need::Junction(m));
             }
             if m + 1 >= track.len() || self.ends[m] >= reach {
                 break;
@@ -753,7 +794,11 @@ impl Stepper {
                 break;
             }
             // The scan needs a junction the track does not hold yet.
-            let junction = *self.known.get(m)?;
+            let Some(&junction) = self.known.get(m) else {
+                // The scan goes on at least to a stop, the window's end, or a junction beyond the
+                // reach it has now (the reach only grows).
+                return self.wait(Need::Beyond { next: m, at: u1 + 1.25 * reach, last });
+            };
             if m > self.k && (junction.acceleration < a_path || junction.jerk < j_path) {
                 a_path = a_path.min(junction.acceleration);
                 j_path = j_path.min(junction.jerk);
@@ -833,6 +878,18 @@ impl Stepper {
         });
         Some((j, limit, ahead))
     }
+}
+
+/// What the track must hold before a step can be decided.
+#[derive(Clone, Copy, Debug)]
+enum Need {
+    /// Junction `i`, final ([`Track::known`]).
+    Junction(usize),
+    /// The counted piece of this ordinal (the look-ahead window's end).
+    Counted(usize),
+    /// The scan of the junctions ahead, out of known ones at junction `next`: a stop, junction
+    /// `last` (the window's end), or a junction beyond parameter `at`.
+    Beyond { next: usize, at: f64, last: Option<usize> },
 }
 
 /// A known junction as the scan of the junctions ahead reads it ([`Stepper::choose`]): where it
@@ -1115,6 +1172,35 @@ mod tests {
                 assert!((d - (1000.0 - s.s)).abs() < 1e-6, "at {t}: {d} vs {}", 1000.0 - s.s);
             }
         }
+    }
+
+    #[test]
+    fn a_streamed_track_is_scanned_no_more_than_a_whole_one() {
+        // 4000 pieces of 0.01: braking from 50 reaches over about a thousand of them. Streamed one
+        // piece at a time, a step waiting for the junctions ahead must not scan them all again
+        // at each piece added (once again at most, when the step waited).
+        let (n, h) = (4000, 0.003);
+        let p = piece(0.01, 50.0, 2500.0, 5000.0);
+        let mut junctions = vec![Junction { cap: f64::INFINITY, limit: Limit::Corner, dwell: 0.0 }; n];
+        junctions[n - 1] = Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 };
+        work::take();
+        let whole = run(&Track::new(vec![p; n], junctions, usize::MAX, 0.0), h, &mut Record(Vec::new()));
+        let [_, whole_work, _] = work::take();
+        let mut builder = TrackBuilder::new(usize::MAX);
+        let mut stepper = Stepper::new(h);
+        let mut record = Record(Vec::new());
+        for block in 0..n {
+            builder.push(p, block, f64::INFINITY, Limit::Corner, true);
+            assert_eq!(stepper.go(&builder.track, &mut record), Progress::Waiting);
+        }
+        builder.complete();
+        assert_eq!(stepper.go(&builder.track, &mut record), Progress::Done);
+        let [_, streamed_work, _] = work::take();
+        assert_eq!(stepper.time(&builder.track), whole);
+        assert!(
+            streamed_work as f64 <= 2.0 * whole_work as f64,
+            "{streamed_work} junctions examined streamed, {whole_work} whole"
+        );
     }
 
     #[test]

@@ -49,6 +49,9 @@ pub struct Curves {
     pub segments: Window<Segment>,
     /// The block each spline starts at (its parameter is 0 there).
     pub start_block: Window<usize>,
+    /// No segment before this one is a curve (from the window's base): where the search for
+    /// the first spline still needed goes on.
+    straight_until: usize,
 }
 
 impl Curves {
@@ -62,12 +65,17 @@ impl Curves {
     /// Forgets the pieces before piece `i`, and the splines that end before it.
     pub fn forget_before(&mut self, i: usize) {
         self.segments.forget_before(i);
-        let first_kept = (self.segments.base()..self.segments.end())
-            .find_map(|p| match self.segments[p] {
-                Segment::Curve { spline, .. } => Some(spline),
-                Segment::Line => None,
-            })
-            .unwrap_or(self.splines.end());
+        // Each segment is looked at once: segments are only added at the end.
+        let mut p = self.straight_until.max(self.segments.base());
+        let first_kept = loop {
+            crate::plan::tally!(SEGMENTS);
+            match self.segments.get(p) {
+                Some(Segment::Curve { spline, .. }) => break *spline,
+                Some(Segment::Line) => p += 1,
+                None => break self.splines.end(),
+            }
+        };
+        self.straight_until = p;
         self.splines.forget_before(first_kept);
         self.start_block.forget_before(first_kept);
     }
@@ -392,5 +400,26 @@ fn tighten(cap: &mut f64, why: &mut Limit, candidate: f64, limit: Limit) {
     if candidate < *cap {
         *cap = candidate;
         *why = limit;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn forgetting_looks_at_each_segment_once() {
+        // A long straight stretch (G1 blocks between B-spline runs): the search for the first
+        // spline still needed must not go over the whole window at each forgetting.
+        crate::plan::work::take();
+        let mut curves = Curves::default();
+        let n: usize = 20_000;
+        for piece in 0..n {
+            curves.segments.push(Segment::Line);
+            curves.forget_before(piece.saturating_sub(5_000));
+        }
+        let [_, _, looked_at] = crate::plan::work::take();
+        assert!(looked_at <= 2 * n as u64, "{looked_at} segments looked at for {n}");
+        assert!(curves.splines.is_empty());
     }
 }
