@@ -54,7 +54,10 @@ impl Kinematics for ToolLength<'_> {
     }
 
     fn inverse_holding(&self, pose: &Pose, free_axis: usize, value: f64) -> Option<Joints> {
-        self.inner.inverse_holding(&self.inner_pose(pose), free_axis, value)
+        // The axis reached is off the pose's (the free axis is held, not solved): the tip is put
+        // on the pose along the axis reached, as `place` does, not along the pose's.
+        let held = self.inner.inverse_holding(&self.inner_pose(pose), free_axis, value)?;
+        Some(self.place(pose, &held))
     }
 
     fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints {
@@ -208,6 +211,34 @@ mod tests {
             assert!((own.tip - (pose.tip + pose.axis.into_inner() * 37.5)).norm() < 1e-9);
             let placed = tool.place(&pose, &s.joints);
             assert!((tool.forward(&placed).tip - pose.tip).norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_longer_tool_held_at_the_singularity_keeps_its_tip_on_the_pose() {
+        // Near the nutating head's pole, with C held where the path carries it: the tool axis
+        // reached is off the pose's (within the singular cone); the tip must not be, whatever
+        // the tool's length.
+        let chain = Chain::new(testing::nutating());
+        let (c, b) = (3, 4);
+        assert_eq!(chain.machine().axes[c].letter, "C");
+        for extra in [-25.0, 37.5] {
+            let tool = ToolLength::new(&chain, chain.machine().chain.tool_length + extra);
+            let tilt = 0.3_f64.to_radians();
+            let pose =
+                Pose { tip: Point3::new(12.0, -8.0, 3.0), axis: Unit::new_normalize(Vector3::new(tilt, 0.0, 1.0)) };
+            let mut sols = Solutions::new();
+            tool.inverse(&pose, &mut sols);
+            let pole = sols.iter().find_map(|s| s.pole).map(|(free, _)| free);
+            assert_eq!(pole, Some(c), "C is free at the pole");
+            for held in [0.5, 2.0] {
+                let joints = tool.inverse_holding(&pose, c, held).expect("held");
+                assert_eq!(joints[c], held);
+                let back = tool.forward(&joints);
+                let off = back.axis.angle(&pose.axis);
+                assert!(off > 1e-4, "the axis reached is off the pose's ({off} rad), B = {}", joints[b]);
+                assert!((back.tip - pose.tip).norm() < 1e-9, "tip {:?} for {:?} ({extra} mm)", back.tip, pose.tip);
+            }
         }
     }
 

@@ -8,7 +8,9 @@ use std::path::PathBuf;
 
 use nalgebra::{Point3, Unit, Vector3};
 use postpro_cl::{Source, Span, read};
-use postpro_kin::{Decision, Kinematics, Pose, Solved, StepKind, Target, choose, linearize, solve, solver_for};
+use postpro_kin::{
+    Decision, Kinematics, Pose, Solved, StepKind, Target, ToolLength, choose, linearize, solve, solver_for,
+};
 use postpro_machine::Registry;
 use postpro_machine::model::{AxisKind, Machine, Travel};
 use proptest::prelude::*;
@@ -237,6 +239,41 @@ fn a_90_degree_swing_of_c_at_the_pole_is_linearised_within_tolerance() {
         let back = kin.forward(&s.joints);
         assert!((back.tip - s.pose.tip).norm() < 1e-9);
     }
+}
+
+/// Across the nutating head's pole with a tool 60 mm longer than the definition's: C is held
+/// through the singular run, so the tool axis reached is off the CL's within the cone; the tip is
+/// on every CL point all the same, and the linearization keeps it within the tolerance with few
+/// points (a tip off by the length times the axis's error could never be brought within it).
+#[test]
+fn across_the_pole_a_tool_of_another_length_keeps_its_tip_on_the_cl_points() {
+    let m = machine("example-head-head-nutating");
+    let inner = solver_for(&m);
+    let kin = ToolLength::new(inner.as_ref(), m.chain.tool_length + 60.0);
+    // 0.3 mm steps along X, the tool tilting from +1° to -1° about Y, 0.01° aside in Y.
+    let targets: Vec<Target> = (0..=40)
+        .map(|k| {
+            let tilt = (1.0 - 0.05 * f64::from(k)).to_radians();
+            let axis = Unit::new_normalize(Vector3::new(tilt.sin(), 0.01_f64.to_radians().sin(), tilt.cos()));
+            let tip = Point3::new(-6.0 + 0.3 * f64::from(k), 0.0, 5.0);
+            Target { pose: Pose { tip, axis }, rapid: false, span: Span::new(k as usize + 1, k as usize + 2) }
+        })
+        .collect();
+    let mut solved = choose(&kin, &targets, &m.policy, None).expect("the pole is passed");
+    assert!(
+        solved.decisions.iter().any(|d| matches!(d.decision, Decision::SingularHold { .. })),
+        "the path crosses the singular cone: {:?}",
+        solved.decisions
+    );
+    let cone = m.policy.singular_cone;
+    for s in &solved.steps {
+        let back = kin.forward(&s.joints);
+        assert!((back.tip - s.pose.tip).norm() < 1e-9, "tip {:?} for {:?}", back.tip, s.pose.tip);
+        assert!(back.axis.angle(&s.pose.axis) <= cone + 1e-9);
+    }
+    let added = linearize::linearize_noting(&kin, &mut solved.steps, &mut solved.decisions, &m.policy);
+    assert!(largest_tip_deviation(&kin, &solved) <= m.policy.linearization_tolerance);
+    assert!(added <= 200, "{added} points added for 40 CL intervals");
 }
 
 /// Winding beyond `unwind` (2 turns on the Haas) is undone at the next rapid, noted.

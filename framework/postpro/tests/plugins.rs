@@ -124,17 +124,34 @@ fn a_bundled_example_solves_through_the_head_head_plugin() {
     assert_eq!(stdout(&o), csv, "the plugin's closed form and the chain give the same program");
 }
 
+/// `--tool-length` is the length of a tool the CL file gives none (`TLDATA` names the tool's own,
+/// and the head then puts that tool's tip on the path whatever the definition's length): through
+/// the plugin it gives the chain's axis values, which differ from the definition's length's.
 #[test]
 fn the_command_line_tool_length_reaches_the_plugin() {
     let lib = library("plugin-head-head");
     let yaml = "plugins/plugin-head-head/machines/fork-head-bc.yaml";
+    let example = std::fs::read_to_string(repo().join(EXAMPLE)).expect("the example");
+    let dir = temp_dir("tool-length");
+    let cl = dir.join("without-length.cl");
+    std::fs::write(&cl, example.lines().filter(|l| !l.starts_with("TLDATA")).collect::<Vec<_>>().join("\n"))
+        .expect("written");
+    let cl = cl.to_str().expect("UTF-8");
     let through_plugin =
-        postpro(&["solve", EXAMPLE, "-m", "fork-head-bc", "--plugin", &lib, "--csv", "--tool-length", "60"]);
+        postpro(&["solve", cl, "-m", "fork-head-bc", "--plugin", &lib, "--csv", "--tool-length", "60"]);
     assert_eq!(through_plugin.status.code(), Some(0), "stderr:\n{}", stderr(&through_plugin));
-    let through_chain = postpro(&["solve", EXAMPLE, "-m", yaml, "--csv", "--tool-length", "60"]);
+    let through_chain = postpro(&["solve", cl, "-m", yaml, "--csv", "--tool-length", "60"]);
     assert_eq!(stdout(&through_plugin), stdout(&through_chain));
-    let default = postpro(&["solve", EXAMPLE, "-m", "fork-head-bc", "--plugin", &lib, "--csv"]);
+    let default = postpro(&["solve", cl, "-m", "fork-head-bc", "--plugin", &lib, "--csv"]);
     assert_ne!(stdout(&through_plugin), stdout(&default));
+    // With the tool's own length declared, the definition's does not matter.
+    let declared = |extra: &[&str]| {
+        let mut args = vec!["solve", EXAMPLE, "-m", "fork-head-bc", "--plugin", &lib, "--csv"];
+        args.extend_from_slice(extra);
+        stdout(&postpro(&args))
+    };
+    assert_eq!(declared(&["--tool-length", "60"]), declared(&[]));
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
