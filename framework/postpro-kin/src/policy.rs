@@ -269,6 +269,24 @@ pub enum SolveError {
         /// Why the motion cannot be continuous.
         cause: Jump,
     },
+    /// The axis values solved for a pose do not put the tool tip on it: an error of the
+    /// kinematics, never written as motion.
+    #[error("the axis values solved for this pose put the tool tip {off:.6} mm away from it on {machine}")]
+    #[diagnostic(
+        code(kin::tip_off),
+        help(
+            "nothing is written: the machine's kinematics (a plugin's, or postpro's own) solved this pose wrongly; please report it with the CL file and the machine"
+        )
+    )]
+    TipOff {
+        /// The CL statement.
+        #[label("this pose")]
+        span: Span,
+        /// How far the tip is from the pose (mm).
+        off: f64,
+        /// The machine.
+        machine: String,
+    },
 }
 
 /// The policy in two passes over the targets, so that a path of any length is solved with memory

@@ -233,7 +233,8 @@ fn real_multi_axis_files_on_the_built_in_5_axis_machines() {
                     let span = match &e {
                         SolveError::Unreachable { span, .. }
                         | SolveError::OutOfTravel { span, .. }
-                        | SolveError::Discontinuity { span, .. } => *span,
+                        | SolveError::Discontinuity { span, .. }
+                        | SolveError::TipOff { span, .. } => *span,
                     };
                     assert!(
                         span.end() <= source.text().len() && span.len > 0,

@@ -142,6 +142,7 @@ impl<'a> Placer<'a> {
         self.off_preference = !preferred;
         self.previous_regular = Some((i, j, cand.branch));
         self.rapid_since = false;
+        self.verify(kin, t, &made.joints)?;
         self.emit(made, out);
         Ok(())
     }
@@ -196,6 +197,7 @@ impl<'a> Placer<'a> {
         if let Some(noted) = hold {
             out.decision(Noted { step: at, ..noted });
         }
+        self.verify(kin, t, &made.joints)?;
         self.emit(made, out);
         Ok(())
     }
@@ -319,6 +321,16 @@ impl<'a> Placer<'a> {
             }
         }
         Ok(self.steps)
+    }
+
+    /// The axis values put the tool tip on the target's pose (within 1e-6 mm, far above the
+    /// rounding): a solver that does not is an error, never motion.
+    fn verify(&self, kin: &dyn Kinematics, t: &Target, joints: &Joints) -> Result<(), SolveError> {
+        let off = (kin.forward(joints).tip - t.pose.tip).norm();
+        if off <= 1e-6 {
+            return Ok(());
+        }
+        Err(SolveError::TipOff { span: t.span, off, machine: self.rules.machine.name.clone() })
     }
 
     /// Hands `step` on as the next step.
