@@ -3,6 +3,8 @@
 use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use postpro_machine::model::*;
 
+use crate::{Joints, Kinematics, Pose, Solutions};
+
 fn axis(letter: &str, kind: AxisKind, dir: [f64; 3], center: [f64; 3], travel: Travel) -> Axis {
     Axis {
         letter: letter.into(),
@@ -108,4 +110,32 @@ pub(crate) fn head_table() -> Machine {
         &[("C", [0.0, 0.0, 1.0], [20.0, 30.0, 0.0], true), ("B", [0.0, 1.0, 0.0], [0.0, 0.0, 300.0], false)],
         SolverKind::Generic,
     )
+}
+
+/// A machine's kinematics as another solver would give it: the trait's own default methods
+/// (`forward_rate` by central difference, as for a plugin), and the solutions held at a
+/// singularity `held_error` mm off in the first axis (0: none), as a solver with an error.
+pub(crate) struct Wrapped<'a> {
+    pub(crate) inner: &'a dyn Kinematics,
+    pub(crate) held_error: f64,
+}
+
+impl Kinematics for Wrapped<'_> {
+    fn machine(&self) -> &Machine {
+        self.inner.machine()
+    }
+    fn forward(&self, joints: &Joints) -> Pose {
+        self.inner.forward(joints)
+    }
+    fn inverse(&self, pose: &Pose, out: &mut Solutions) {
+        self.inner.inverse(pose, out);
+    }
+    fn inverse_holding(&self, pose: &Pose, free_axis: usize, value: f64) -> Option<Joints> {
+        let mut j = self.inner.inverse_holding(pose, free_axis, value)?;
+        j[0] += self.held_error;
+        Some(j)
+    }
+    fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints {
+        self.inner.place(pose, rotaries)
+    }
 }

@@ -337,30 +337,6 @@ fn linearization_keeps_the_tip_within_tolerance() {
     check_poses(kin.as_ref(), &solved, policy.singular_cone);
 }
 
-/// The Mikron whose held solutions (at the pole) are off by 0.05 mm in X, as a solver with an
-/// error would be.
-struct OffAtThePole(Box<dyn Kinematics>);
-
-impl Kinematics for OffAtThePole {
-    fn machine(&self) -> &postpro_machine::model::Machine {
-        self.0.machine()
-    }
-    fn forward(&self, joints: &Joints) -> Pose {
-        self.0.forward(joints)
-    }
-    fn inverse(&self, pose: &Pose, out: &mut Solutions) {
-        self.0.inverse(pose, out);
-    }
-    fn inverse_holding(&self, pose: &Pose, free_axis: usize, value: f64) -> Option<Joints> {
-        let mut j = self.0.inverse_holding(pose, free_axis, value)?;
-        j[0] += 0.05;
-        Some(j)
-    }
-    fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints {
-        self.0.place(pose, rotaries)
-    }
-}
-
 /// A position whose axis values do not put the tip on its CL point is an error naming the
 /// statement, never a step: here the path crosses the pole at its third target.
 #[test]
@@ -373,7 +349,10 @@ fn a_solution_that_misses_the_tip_is_an_error_not_motion() {
         solved.decisions.iter().any(|d| matches!(d.decision, Decision::SingularHold { .. })),
         "the pole is crossed"
     );
-    let err = choose(&OffAtThePole(mikron()), &targets, &policy, None).expect_err("the tip is off");
+    // A solver whose held solutions (at the pole) are off by 0.05 mm in X.
+    let mikron = mikron();
+    let off = testing::Wrapped { inner: mikron.as_ref(), held_error: 0.05 };
+    let err = choose(&off, &targets, &policy, None).expect_err("the tip is off");
     let SolveError::TipOff { span, off, .. } = &err else { panic!("{err:?}") };
     assert_eq!(*span, targets[2].span);
     assert!((off - 0.05).abs() < 1e-9, "{off}");
