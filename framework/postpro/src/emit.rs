@@ -350,27 +350,16 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
         .iter()
         .filter(|i| matches!(i.kind, postpro_cl::ItemKind::Text(postpro_cl::TextKind::Insert, _)))
         .collect();
-    if let (false, Some(first)) = (how.insert_verbatim, inserts.first()) {
-        eprintln!(
-            "note: {} INSERT text(s) written as comments (first at {}); `--insert verbatim` passes them to the \
-             controller as blocks",
-            inserts.len(),
-            source.location(first.span.start as usize)
-        );
-    }
-    if output != Path::new("-") {
-        eprintln!(
-            "wrote {} for {} ({} CL points, {} added by linearization, {} IKT decisions)",
-            output.display(),
-            machine.name,
-            solved.steps.len() - solved.inserted,
-            solved.inserted,
-            solved.decisions.len()
-        );
-        if let Some((cycle, lost, slowdowns)) = predicted_time {
-            eprintln!("predicted cycle time {cycle:.1} s, {lost:.1} s lost to slowdowns, {slowdowns} slowdowns marked");
-        }
-    }
+    let first_insert = inserts.first().filter(|_| !how.insert_verbatim).map(|i| source.location(i.span.start as usize));
+    let counts = (solved.steps.len() - solved.inserted, solved.inserted, solved.decisions.len());
+    crate::job::said_written(
+        output,
+        &machine.name,
+        (inserts.len(), first_insert.map(|l| l.to_string())),
+        counts,
+        mode == Mode::Tcp,
+        predicted_time,
+    );
     ExitCode::SUCCESS
 }
 

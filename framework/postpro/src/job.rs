@@ -137,6 +137,38 @@ pub(crate) fn machine_and_setup(
     Ok((machine, job_setup))
 }
 
+/// What the main job says once the program is written: the INSERT texts it wrote as comments
+/// (`inserts`: how many, and where the first is), and, unless the program went to standard
+/// output, where it went with its counts (`counts`: CL points, points added by linearization,
+/// IKT decisions; TCP mode writes no added point) and the predicted time.
+pub(crate) fn said_written(
+    output: &Path,
+    machine: &str,
+    (inserts, first_insert): (usize, Option<String>),
+    (cl_points, linearized, decisions): (usize, usize, usize),
+    tcp: bool,
+    predicted_time: Option<(f64, f64, usize)>,
+) {
+    if let Some(first) = first_insert {
+        eprintln!(
+            "note: {inserts} INSERT text(s) written as comments (first at {first}); `--insert verbatim` passes them to \
+             the controller as blocks"
+        );
+    }
+    if output == Path::new("-") {
+        return;
+    }
+    let unwritten = if tcp && linearized > 0 { " (not written: TCP keeps the tip on the path)" } else { "" };
+    eprintln!(
+        "wrote {} for {machine} ({cl_points} CL points, {linearized} added by linearization{unwritten}, {decisions} IKT \
+         decisions)",
+        output.display()
+    );
+    if let Some((cycle, lost, slowdowns)) = predicted_time {
+        eprintln!("predicted cycle time {cycle:.1} s, {lost:.1} s lost to slowdowns, {slowdowns} slowdowns marked");
+    }
+}
+
 /// The error message for a CL file without motion (`apt_source`: it is an APT part program).
 pub(crate) fn no_motion(name: &str, apt_source: bool, nothing: &str) -> String {
     let why = if apt_source {

@@ -1183,6 +1183,7 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
     let surveyed_at = passes.surveyed_at;
     let predicted_at = passes.predicted_at.get().unwrap_or(surveyed_at);
     let inserts = passes.surveyed.inserts;
+    let tcp = passes.mode == postpro_motion::Mode::Tcp;
     let Outcome { summary, predicted_time, passes } = outcome;
     progress.finish();
     if program.timing {
@@ -1206,26 +1207,16 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
         );
     }
     let (inserts, first_insert) = inserts;
-    if let (false, Some(first)) = (program.insert_verbatim, first_insert) {
-        eprintln!(
-            "note: {inserts} INSERT text(s) written as comments (first at {}); `--insert verbatim` passes them to the \
-             controller as blocks",
-            file.location(first.start as usize)
-        );
-    }
-    if output != Path::new("-") {
-        eprintln!(
-            "wrote {} for {} ({} CL points, {} added by linearization, {} IKT decisions)",
-            output.display(),
-            machine.name,
-            summary.cl_points,
-            summary.linearized_points,
-            summary.decisions
-        );
-        if let Some((cycle, lost, slowdowns)) = predicted_time {
-            eprintln!("predicted cycle time {cycle:.1} s, {lost:.1} s lost to slowdowns, {slowdowns} slowdowns marked");
-        }
-    }
+    let first_insert = first_insert.filter(|_| !program.insert_verbatim).map(|f| file.location(f.start as usize));
+    let counts = (summary.cl_points, summary.linearized_points, summary.decisions);
+    crate::job::said_written(
+        output,
+        &machine.name,
+        (inserts, first_insert.map(|l| l.to_string())),
+        counts,
+        tcp,
+        predicted_time,
+    );
     Ok(ExitCode::SUCCESS)
 }
 
