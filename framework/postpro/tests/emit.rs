@@ -49,8 +49,13 @@ fn the_program_goes_next_to_the_cl_file_with_the_dialect_extension() {
         "{}",
         text(&o.stderr)
     );
+    // TCP mode writes none of the points the linearization added, and says so where it counts them.
+    let unwritten = "added by linearization (not written: TCP keeps the tip on the path)";
+    assert!(text(&o.stderr).contains(unwritten), "{}", text(&o.stderr));
+    assert!(program.contains("\n; the points added by linearization are not written: TCP keeps the tip on the path"));
     let o = postpro(&["-m", "maho", "hypar-5axis.cl", "--mode", "inverse-time"], &dir);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(!text(&o.stderr).contains("not written"), "{}", text(&o.stderr));
     assert!(std::fs::read_to_string(dir.join("hypar-5axis.nc")).expect("fanuc program").contains("G93"));
     assert!(leftovers(&dir).is_empty());
     let _ = std::fs::remove_dir_all(&dir);
