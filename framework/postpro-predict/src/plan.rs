@@ -680,22 +680,16 @@ impl Stepper {
     /// What of `need` the track does not hold yet (`None`: all of it), the junctions taken in
     /// ([`Self::extend`]) looked at once each.
     fn still_needs(&self, need: Need, track: &Track) -> Option<Need> {
-        let met = match need {
-            Need::Junction(i) => track.known(i),
-            Need::Counted(ordinal) => track.complete || ordinal < track.counted.end(),
-            Need::Beyond { mut next, at, last } => {
-                let known = &self.known;
-                while next < known.end() {
-                    let junction = &known[next];
-                    if junction.cap <= 0.0 || junction.at > at || Some(next) == last {
-                        return None;
-                    }
-                    next += 1;
-                }
-                return (!track.complete).then_some(Need::Beyond { next, at, last });
+        let known = &self.known;
+        match need {
+            Need::Junction(i) => (!track.known(i)).then_some(need),
+            Need::Counted(ordinal) => (!track.complete && ordinal >= track.counted.end()).then_some(need),
+            Need::Beyond { next, at, last } => {
+                let ends_scan = |i: usize| known[i].cap <= 0.0 || known[i].at > at || Some(i) == last;
+                let met = track.complete || (next..known.end()).any(ends_scan);
+                (!met).then_some(Need::Beyond { next: known.end(), at, last })
             }
-        };
-        (!met).then_some(need)
+        }
     }
 
     /// Notes what the track must hold before the step can be decided, and says it cannot yet.
