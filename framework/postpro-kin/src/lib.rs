@@ -25,7 +25,7 @@ mod tool;
 
 pub use chain::Chain;
 pub use closed::TableTableClosedForm;
-pub use linearize::{Linearizer, Linearizing, Shape, linearize};
+pub use linearize::{Linearizer, Linearizing, Shape, Unsettled, linearize};
 pub use path::{targets, targets_of};
 pub use policy::{
     BranchGraph, Choice, Collected, Decision, Jump, Noted, Placer, Policy, SolveError, Solved, Step, StepKind,
@@ -40,7 +40,8 @@ pub use tool::{LengthFrom, Stretches, ToolLength, ToolPlacer, solve_with_tools, 
 pub fn solve(kin: &dyn Kinematics, path: &postpro_cl::ToolPath, policy: &Policy) -> Result<Solved, SolveError> {
     let targets = targets(path, policy.linearization_tolerance);
     let mut solved = choose(kin, &targets, policy, None)?;
-    solved.inserted = linearize::linearize_noting(kin, &mut solved.steps, &mut solved.decisions, policy);
+    (solved.inserted, solved.unsettled) =
+        linearize::linearize_noting(kin, &mut solved.steps, &mut solved.decisions, policy);
     Ok(solved)
 }
 

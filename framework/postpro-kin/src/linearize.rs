@@ -4,6 +4,7 @@
 //! tip stays within the tolerance of the segment.
 
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
+use postpro_cl::Span;
 
 use crate::bits::Bits;
 use crate::policy::{Collected, Noted, Policy, Step, StepKind, StepSink};
@@ -19,16 +20,17 @@ const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 /// stays within the policy's tolerance (mm) of every programmed segment. Returns the number
 /// inserted. A point within the singular cone takes its free axis from the interpolation.
 pub fn linearize(kin: &dyn Kinematics, steps: &mut Vec<Step>, policy: &Policy) -> usize {
-    linearize_noting(kin, steps, &mut Vec::new(), policy)
+    linearize_noting(kin, steps, &mut Vec::new(), policy).0
 }
 
-/// [`linearize`], keeping the step indices of `decisions` pointing at the same steps.
+/// [`linearize`], keeping the step indices of `decisions` pointing at the same steps; also
+/// returns the segments it left out of tolerance.
 pub fn linearize_noting(
     kin: &dyn Kinematics,
     steps: &mut Vec<Step>,
     decisions: &mut [Noted],
     policy: &Policy,
-) -> usize {
+) -> (usize, Unsettled) {
     let mut linearizer = Linearizer::new(policy);
     let mut out = Collected { steps: Vec::with_capacity(steps.len()), decisions: Vec::new() };
     let mut d = 0;
@@ -43,7 +45,7 @@ pub fn linearize_noting(
         *slot = noted;
     }
     *steps = out.steps;
-    linearizer.inserted()
+    (linearizer.inserted(), linearizer.unsettled())
 }
 
 /// Linearization as a stage between the policy and its reader: steps in, steps out, with the
@@ -64,14 +66,50 @@ pub struct Linearizer {
     points: Vec<Step>,
     /// The subdivisions: recorded (each deviation check's outcome) or replayed.
     shape: Shape,
+    /// The segments left out of tolerance so far (all of them at once when replaying).
+    unsettled: Unsettled,
+}
+
+/// The segments linearization could not bring within its tolerance: at its depth limit (2¹²
+/// pieces) the tip still strays further, or a pose between has no inverse solution. Written as
+/// they are, such segments leave the programmed path by up to `worst` where the controller
+/// interpolates the axes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Unsettled {
+    /// Segments (from one step to the next) left out of tolerance.
+    pub segments: usize,
+    /// The largest deviation measured on them (mm).
+    pub worst: f64,
+    /// The CL statement of the first.
+    pub first: Option<Span>,
+    /// The tolerance (mm).
+    pub tolerance: f64,
+}
+
+impl Unsettled {
+    /// The largest deviation to read: in mm to 0.1 µm, in scientific notation below.
+    pub fn worst_shown(&self) -> String {
+        match self.worst {
+            w if w >= 1e-4 => format!("{w:.4} mm"),
+            w => format!("{w:.1e} mm"),
+        }
+    }
+
+    /// Counts the segment ending at `span`, `deviation` (mm) off.
+    fn add(&mut self, span: Span, deviation: f64) {
+        self.segments += 1;
+        self.worst = self.worst.max(deviation);
+        self.first.get_or_insert(span);
+    }
 }
 
 /// The outcome of every deviation check of a linearization, in order, a bit each: a second
 /// linearization of the same steps (a later pass of a streamed job) replays it and checks no
-/// deviation again.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+/// deviation again. It keeps what the recording left unsettled, which a replay cannot see.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Shape {
     bits: Bits,
+    unsettled: Unsettled,
     /// Replaying: the next bit to read; `None`: recording (or neither, when `off`).
     read: Option<usize>,
     off: bool,
@@ -113,6 +151,7 @@ impl Linearizer {
             sols: Solutions::new(),
             points: Vec::new(),
             shape: Shape::off(),
+            unsettled: Unsettled { tolerance: policy.linearization_tolerance, ..Unsettled::default() },
         }
     }
 
@@ -123,17 +162,26 @@ impl Linearizer {
 
     /// A linearization of the same steps again that replays `shape`, recorded by another.
     pub fn replaying(policy: &Policy, shape: Shape) -> Linearizer {
-        Linearizer { shape: Shape { read: Some(0), off: false, ..shape }, ..Linearizer::new(policy) }
+        Linearizer {
+            unsettled: shape.unsettled,
+            shape: Shape { read: Some(0), off: false, ..shape },
+            ..Linearizer::new(policy)
+        }
     }
 
     /// The subdivisions recorded.
     pub fn shape(self) -> Shape {
-        Shape { read: None, ..self.shape }
+        Shape { read: None, unsettled: self.unsettled, ..self.shape }
     }
 
     /// Points inserted so far.
     pub fn inserted(&self) -> usize {
         self.inserted
+    }
+
+    /// The segments left out of tolerance so far; replaying, those the recording found.
+    pub fn unsettled(&self) -> Unsettled {
+        self.unsettled
     }
 
     /// Forgets the previous step: the next one starts afresh (another tool; nothing joins them).
@@ -155,8 +203,11 @@ impl Linearizer {
         {
             self.points.clear();
             let mut points = std::mem::take(&mut self.points);
-            let mut split = Split { shape: &mut self.shape, sols: &mut self.sols, out: &mut points };
+            let mut split = Split { shape: &mut self.shape, sols: &mut self.sols, out: &mut points, off: None };
             self.inserted += split.subdivide(kin, &prev, &step, (self.tolerance, self.cone), 0);
+            if let Some(deviation) = split.off {
+                self.unsettled.add(step.span, deviation);
+            }
             for p in points.drain(..) {
                 self.given += 1;
                 out.step(p);
@@ -213,6 +264,8 @@ struct Split<'a> {
     shape: &'a mut Shape,
     sols: &'a mut Solutions,
     out: &'a mut Vec<Step>,
+    /// The largest deviation of the pieces left out of tolerance (checked, not replayed).
+    off: Option<f64>,
 }
 
 impl Split<'_> {
@@ -226,18 +279,35 @@ impl Split<'_> {
     ) -> usize {
         // Anything but "within tolerance" splits, a NaN deviation too.
         let within = |d: f64| d.partial_cmp(&tolerance).is_some_and(|o| o != std::cmp::Ordering::Greater);
-        if !self.shape.split(|| depth < MAX_DEPTH && !within(deviation(kin, a, b))) {
-            return 0;
+        let mut over = None;
+        let split = self.shape.split(|| {
+            let d = deviation(kin, a, b);
+            if within(d) {
+                return false;
+            }
+            over = Some(d);
+            depth < MAX_DEPTH
+        });
+        if !split {
+            return self.left(over);
         }
         let pose =
             Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * 0.5, axis: slerp(&a.pose.axis, &b.pose.axis, 0.5) };
         let Some(joints) = nearest_solution(kin, &pose, &a.joints.lerp(&b.joints, 0.5), cone, self.sols) else {
-            return 0;
+            return self.left(over);
         };
         let mid = Step { joints, pose, rapid: false, span: b.span, kind: StepKind::Linearized };
         let left = self.subdivide(kin, a, &mid, (tolerance, cone), depth + 1);
         self.out.push(mid);
         left + 1 + self.subdivide(kin, &mid, b, (tolerance, cone), depth + 1)
+    }
+
+    /// A piece left as it is, `over` (mm) out of tolerance if checked so; inserts nothing.
+    fn left(&mut self, over: Option<f64>) -> usize {
+        if let Some(d) = over {
+            self.off = Some(self.off.map_or(d, |o| o.max(d)));
+        }
+        0
     }
 }
 
@@ -293,4 +363,119 @@ pub(crate) fn distance_to_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f
     let len2 = ab.norm_squared();
     let t = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
     (p - (a + ab * t)).norm()
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Point3, Vector3};
+    use postpro_cl::Span;
+    use postpro_machine::model::SolverKind;
+
+    use super::*;
+    use crate::chain::Chain;
+    use crate::testing;
+
+    /// A machine's kinematics whose forward kinematics puts the tip `shift` off where the
+    /// inverse places it (no subdivision brings such a tip onto the path), and which has no
+    /// solution for a tip with `x` in `gap`.
+    struct Askew<'a> {
+        inner: &'a dyn Kinematics,
+        shift: Vector3<f64>,
+        gap: (f64, f64),
+    }
+
+    impl Kinematics for Askew<'_> {
+        fn machine(&self) -> &postpro_machine::model::Machine {
+            self.inner.machine()
+        }
+        fn forward(&self, joints: &Joints) -> Pose {
+            let pose = self.inner.forward(joints);
+            Pose { tip: pose.tip + self.shift, ..pose }
+        }
+        fn inverse(&self, pose: &Pose, out: &mut Solutions) {
+            out.clear();
+            if !(self.gap.0..self.gap.1).contains(&pose.tip.x) {
+                self.inner.inverse(pose, out);
+            }
+        }
+        fn inverse_holding(&self, pose: &Pose, free_axis: usize, value: f64) -> Option<Joints> {
+            self.inner.inverse_holding(pose, free_axis, value)
+        }
+        fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints {
+            self.inner.place(pose, rotaries)
+        }
+    }
+
+    /// Feed steps through `tips` with the tool axis tilted by `tilts` (degrees about X), each
+    /// statement 10 bytes long.
+    fn steps(kin: &dyn Kinematics, tips: &[[f64; 3]], tilts: &[f64]) -> Vec<Step> {
+        let mut sols = Solutions::new();
+        let mut out: Vec<Step> = Vec::new();
+        for (k, (tip, tilt)) in tips.iter().zip(tilts).enumerate() {
+            let t = tilt.to_radians();
+            let pose =
+                Pose { tip: Point3::from(*tip), axis: Unit::new_normalize(Vector3::new(0.0, -t.sin(), t.cos())) };
+            let near = out.last().map_or(Joints::zeros(kin.machine().axes.len()), |s| s.joints);
+            let joints = nearest_solution(kin, &pose, &near, 1e-3, &mut sols).expect("reachable");
+            let span = Span { start: 10 * k as u32, len: 10 };
+            out.push(Step { joints, pose, rapid: false, span, kind: StepKind::Cl });
+        }
+        out
+    }
+
+    fn run(kin: &dyn Kinematics, linearizer: &mut Linearizer, steps: &[Step]) -> Vec<Step> {
+        let mut out = Collected::default();
+        for step in steps {
+            linearizer.step(kin, *step, &mut out);
+        }
+        out.steps
+    }
+
+    #[test]
+    fn a_segment_that_cannot_be_brought_within_tolerance_is_counted_with_its_deviation() {
+        let machine = testing::mikron(SolverKind::Generic);
+        let chain = Chain::new(machine);
+        let askew = Askew { inner: &chain, shift: Vector3::new(0.0, 0.0, 0.05), gap: (f64::MAX, f64::MAX) };
+        let policy = chain.machine().policy.clone();
+        let path = steps(&chain, &[[0.0, 0.0, 0.0], [30.0, 0.0, 0.0], [60.0, 0.0, 0.0]], &[0.0, 0.0, 0.0]);
+
+        let mut recording = Linearizer::recording(&policy);
+        let written = run(&askew, &mut recording, &path);
+        let unsettled = recording.unsettled();
+        assert_eq!(unsettled.segments, 2, "{unsettled:?}");
+        assert!((unsettled.worst - 0.05).abs() < 1e-9, "{unsettled:?}");
+        assert_eq!(unsettled.first, Some(path[1].span));
+        assert_eq!(unsettled.tolerance, policy.linearization_tolerance);
+        // Down to the depth limit: 2¹² pieces a segment.
+        assert_eq!(recording.inserted(), 2 * ((1 << MAX_DEPTH) - 1));
+
+        // A later pass replays the subdivisions without checking: it says the same.
+        let mut replaying = Linearizer::replaying(&policy, recording.shape());
+        assert_eq!(run(&askew, &mut replaying, &path), written);
+        assert_eq!(replaying.unsettled(), unsettled);
+
+        // With the kinematics right, nothing is left.
+        let mut right = Linearizer::new(&policy);
+        run(&chain, &mut right, &path);
+        assert_eq!(right.unsettled().segments, 0);
+    }
+
+    #[test]
+    fn a_segment_whose_midpoint_has_no_solution_is_counted() {
+        let machine = testing::mikron(SolverKind::Generic);
+        let chain = Chain::new(machine);
+        let policy = chain.machine().policy.clone();
+        // A tilt from 0° to 15° over 40 mm: far off the segment with the axes interpolated.
+        let path = steps(&chain, &[[0.0, 0.0, 0.0], [40.0, 0.0, 0.0]], &[0.0, 15.0]);
+        let before = deviation(&chain, &path[0], &path[1]);
+        assert!(before > 10.0 * policy.linearization_tolerance, "{before}");
+        let gapped = Askew { inner: &chain, shift: Vector3::zeros(), gap: (19.0, 21.0) };
+
+        let mut linearizer = Linearizer::new(&policy);
+        assert_eq!(run(&gapped, &mut linearizer, &path).len(), 2);
+        let unsettled = linearizer.unsettled();
+        assert_eq!(unsettled.segments, 1, "{unsettled:?}");
+        assert_eq!(unsettled.worst, before);
+        assert_eq!(unsettled.first, Some(path[1].span));
+    }
 }

@@ -191,6 +191,8 @@ pub struct Solved {
     pub decisions: Vec<Noted>,
     /// Points added by linearization.
     pub inserted: usize,
+    /// The segments linearization left out of tolerance.
+    pub unsettled: crate::linearize::Unsettled,
 }
 
 /// Why two consecutive feed points cannot be joined by one continuous motion.
@@ -316,7 +318,7 @@ pub fn choose(
     for t in targets {
         placer.push(kin, t, &mut out)?;
     }
-    Ok(Solved { steps: out.steps, decisions: out.decisions, inserted: 0 })
+    Ok(Solved { steps: out.steps, decisions: out.decisions, inserted: 0, unsettled: Default::default() })
 }
 
 /// Where the steps of the policy (or of the linearization) go, in path order: each decision

@@ -99,7 +99,12 @@ pub fn solve_with_tools(
     for t in &all {
         placing.push(t, &mut out)?;
     }
-    Ok(Solved { steps: out.steps, decisions: out.decisions, inserted: placing.inserted() })
+    Ok(Solved {
+        steps: out.steps,
+        decisions: out.decisions,
+        inserted: placing.inserted(),
+        unsettled: placing.unsettled(),
+    })
 }
 
 /// The policy's second pass with the tools' lengths: each target placed with the kinematics of
@@ -128,6 +133,11 @@ impl<'a> ToolPlacer<'a> {
     /// Points linearization inserted so far.
     pub fn inserted(&self) -> usize {
         self.linearizer.inserted()
+    }
+
+    /// The segments linearization left out of tolerance so far ([`Linearizer::unsettled`]).
+    pub fn unsettled(&self) -> crate::linearize::Unsettled {
+        self.linearizer.unsettled()
     }
 
     /// The linearization's subdivisions ([`Linearizer::shape`]).

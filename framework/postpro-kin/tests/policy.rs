@@ -230,7 +230,9 @@ fn a_90_degree_swing_of_c_at_the_pole_is_linearised_within_tolerance() {
     assert!((swing.abs() - 90.0).abs() < 1e-6, "C swings {swing}°");
     assert!(solved.decisions.iter().any(|d| matches!(d.decision, Decision::LargeRotaryStep { .. }) && d.step == 1));
     let before = largest_tip_deviation(kin.as_ref(), &solved);
-    let added = linearize::linearize_noting(kin.as_ref(), &mut solved.steps, &mut solved.decisions, &m.policy);
+    let (added, unsettled) =
+        linearize::linearize_noting(kin.as_ref(), &mut solved.steps, &mut solved.decisions, &m.policy);
+    assert_eq!(unsettled.segments, 0, "{unsettled:?}");
     let after = largest_tip_deviation(kin.as_ref(), &solved);
     let tolerance = m.policy.linearization_tolerance;
     eprintln!("90° swing: deviation {before:.3} mm before, {after:.5} mm after, {added} points added");
@@ -271,7 +273,8 @@ fn across_the_pole_a_tool_of_another_length_keeps_its_tip_on_the_cl_points() {
         assert!((back.tip - s.pose.tip).norm() < 1e-9, "tip {:?} for {:?}", back.tip, s.pose.tip);
         assert!(back.axis.angle(&s.pose.axis) <= cone + 1e-9);
     }
-    let added = linearize::linearize_noting(&kin, &mut solved.steps, &mut solved.decisions, &m.policy);
+    let (added, unsettled) = linearize::linearize_noting(&kin, &mut solved.steps, &mut solved.decisions, &m.policy);
+    assert_eq!(unsettled.segments, 0, "{unsettled:?}");
     assert!(largest_tip_deviation(&kin, &solved) <= m.policy.linearization_tolerance);
     assert!(added <= 200, "{added} points added for 40 CL intervals");
 }

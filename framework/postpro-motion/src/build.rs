@@ -15,7 +15,7 @@
 use postpro_cl::{
     CutterComp, Delay, FeedPer, Item, ItemKind, Motion, MoveKind, Span, Spindle, SpindleUnit, TextKind, ToolPath,
 };
-use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind, ToolLength, bspline};
+use postpro_kin::{Joints, Kinematics, Noted, Pose, Solved, Step, StepKind, ToolLength, Unsettled, bspline};
 use postpro_machine::model::{AxisKind, Machine};
 use postpro_machine::setup::WorkOffset;
 
@@ -222,7 +222,7 @@ pub fn build(
     for step in &solved.steps[k..] {
         stage.trailing(step)?;
     }
-    stage.finish(solved.inserted)
+    stage.finish(solved.inserted, &solved.unsettled)
 }
 
 /// The words of a tool path that the reader does not know: written as comments.
@@ -325,17 +325,38 @@ impl<'a> Stage<'a> {
     }
 
     /// The end of the program (spindle and coolant off, retract, rotaries home): the header's
-    /// counts, with `linearized` the points linearization added, and what had to be said.
-    pub fn finish(mut self, linearized: usize) -> Result<Summary, MotionError> {
+    /// counts, with `linearized` the points linearization added, and what had to be said, the
+    /// segments linearization left out of tolerance (`unsettled`) among it.
+    pub fn finish(mut self, linearized: usize, unsettled: &Unsettled) -> Result<Summary, MotionError> {
         self.b.flush_cycle()?;
         self.b.finish();
-        Ok(Summary {
-            cl_points: self.cl_points,
-            linearized_points: linearized,
-            decisions: self.decisions,
-            warnings: std::mem::take(&mut self.b.warnings),
-        })
+        let mut warnings = std::mem::take(&mut self.b.warnings);
+        if let Some(w) = unsettled_warning(unsettled, self.b.options.mode) {
+            let at = warnings.partition_point(|v| v.span.start <= w.span.start);
+            warnings.insert(at, w);
+        }
+        Ok(Summary { cl_points: self.cl_points, linearized_points: linearized, decisions: self.decisions, warnings })
     }
+}
+
+/// The warning about the feed moves linearization left out of tolerance, at the first; none in
+/// TCP mode, where the controller keeps the tip on the path and its points are not written.
+fn unsettled_warning(unsettled: &Unsettled, mode: Mode) -> Option<Warning> {
+    let span = unsettled.first?;
+    if mode == Mode::Tcp {
+        return None;
+    }
+    let (segments, worst, tolerance) = (unsettled.segments, unsettled.worst_shown(), unsettled.tolerance);
+    Some(Warning {
+        span,
+        message: format!(
+            "{segments} feed move(s), the first here, stray up to {worst} from the programmed path \
+             as the controller interpolates the axes, over the linearization tolerance of {tolerance} mm: \
+             linearization could not bring them within it (at most 4096 points a move, or a point between \
+             has no solution); check the machine definition and the tool's length, or write the program in \
+             TCP mode (--mode tcp), or raise the tolerance (--tolerance)"
+        ),
+    })
 }
 
 /// A feed move queued in a B-spline run.

@@ -427,6 +427,15 @@ fn summary(solution: &crate::stream::Solution, seen: &Seen) -> String {
         "positions   {} ({} from the CL file, {} added by linearization within {} mm)",
         seen.positions, seen.cl, solution.inserted, machine.policy.linearization_tolerance
     );
+    if let (unsettled, Some(first)) = &solution.unsettled {
+        let _ = writeln!(
+            out,
+            "off path    {} feed move(s) stray up to {}, over the tolerance: linearization could not bring \
+             them within it (first at {first})",
+            unsettled.segments,
+            unsettled.worst_shown()
+        );
+    }
     for (a, (lo, hi)) in machine.axes.iter().zip(&seen.ranges) {
         let unit = if a.kind == AxisKind::Rotary { "°" } else { " mm" };
         let d = usize::from(a.decimals);

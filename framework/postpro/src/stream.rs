@@ -281,7 +281,7 @@ impl Motions<'_> {
         }
         let placing = self.placing.placing;
         let guessed = self.stage.guessed_answers().to_vec();
-        let summary = self.stage.finish(placing.inserted()).map_err(PassError::Motion)?;
+        let summary = self.stage.finish(placing.inserted(), &placing.unsettled()).map_err(PassError::Motion)?;
         Ok(Passed { summary, survey: self.surveyor.map(Surveyor::finish), shape: placing.shape(), guessed })
     }
 }
@@ -928,6 +928,8 @@ pub(crate) struct Solution {
     pub(crate) name: String,
     /// The points linearization added.
     pub(crate) inserted: usize,
+    /// The feed moves it left out of tolerance, and where the first is (`file:line:column`).
+    pub(crate) unsettled: (postpro_kin::Unsettled, Option<String>),
 }
 
 /// `postpro solve`: the survey, then the policy's second pass and the linearization (no motion
@@ -942,8 +944,10 @@ pub(crate) fn solve(
     let solution = surveyed(request, &progress, |passes, _| {
         progress.pass(1, "solving the kinematics");
         let frame = postpro_motion::work_frame(passes.pass.kin, passes.mode);
-        let inserted = passes.pass.steps(&passes.surveyed.choice, &mut |c| each(c, passes.file, &frame));
+        let linearized = passes.pass.steps(&passes.surveyed.choice, &mut |c| each(c, passes.file, &frame));
         progress.finish();
+        let (inserted, unsettled) = linearized.map_err(|e| (passes.render)(e))?;
+        let first = unsettled.first.map(|span| passes.file.location(span.start as usize));
         Ok(Solution {
             machine: passes.machine.clone(),
             plugin: match passes.solver {
@@ -952,7 +956,8 @@ pub(crate) fn solve(
             },
             frame,
             name: passes.file.name().to_string(),
-            inserted: inserted.map_err(|e| (passes.render)(e))?,
+            inserted,
+            unsettled: (unsettled, first),
         })
     });
     progress.finish();
@@ -1342,15 +1347,20 @@ impl Pass<'_> {
     }
 
     /// Reads the CL file through the policy's second pass (`choice`) and the linearization,
-    /// each item's steps to `each`; returns the points linearization added.
-    fn steps(&self, choice: &postpro_kin::Choice, each: &mut dyn FnMut(&Collected)) -> Result<usize, PassError> {
+    /// each item's steps to `each`; returns the points linearization added and the feed moves it
+    /// left out of tolerance.
+    fn steps(
+        &self,
+        choice: &postpro_kin::Choice,
+        each: &mut dyn FnMut(&Collected),
+    ) -> Result<(usize, postpro_kin::Unsettled), PassError> {
         let linearizer = Linearizer::recording(self.policy);
         let mut steps = Steps { placing: Placing::new(self, choice, linearizer), each, error: None };
         let mut counting = Counting { sink: &mut steps, progress: self.progress };
         self.file.read_into_with(self.read_options, &mut counting).map_err(PassError::Read)?;
         match steps.error {
             Some(e) => Err(e),
-            None => Ok(steps.placing.placing.inserted()),
+            None => Ok((steps.placing.placing.inserted(), steps.placing.placing.unsettled())),
         }
     }
 }

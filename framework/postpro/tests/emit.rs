@@ -248,3 +248,52 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
         .collect();
     assert!(left.is_empty(), "scratch files left: {left:?}");
 }
+
+#[test]
+fn moves_linearization_cannot_bring_within_tolerance_are_a_warning_that_strict_refuses() {
+    let dir = scratch("unsettled", "framework/postpro/tests/jobs/two_tools_tilted.cl");
+    // Its first moves: a plunge, then two tilting feed moves.
+    let cl = std::fs::read_to_string(dir.join("two_tools_tilted.cl")).expect("read");
+    let head: Vec<&str> = cl.lines().take(11).collect();
+    std::fs::write(dir.join("tilting.cl"), format!("{}\nFINI\n", head.join("\n"))).expect("write");
+    // A tolerance no 4096 points a move reach: each tilting feed move stays over it.
+    let run = |extra: &[&str]| {
+        let mut args = vec!["--machine", "maho600e", "tilting.cl", "--tolerance", "1e-9"];
+        args.extend_from_slice(extra);
+        postpro(&args, &dir)
+    };
+    let said = "2 feed move(s), the first here, stray up to ";
+    let out = run(&["--mode", "g1", "-o", "g1.h"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stderr = text(&out.stderr);
+    let warning = stderr.lines().find(|l| l.contains(said)).unwrap_or_else(|| panic!("{stderr}"));
+    assert!(warning.starts_with("warning: tilting.cl:10:1: "), "{warning}");
+    assert!(warning.contains("over the linearization tolerance of 0.000000001 mm"), "{warning}");
+    assert!(dir.join("g1.h").exists());
+
+    let out = run(&["--mode", "g1", "-o", "strict.h", "--strict"]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stderr));
+    let stderr = text(&out.stderr);
+    assert!(stderr.contains(&format!("error: tilting.cl:10:1: {said}")), "{stderr}");
+    assert!(stderr.contains("--strict makes them errors"), "{stderr}");
+    assert!(!dir.join("strict.h").exists());
+    assert_eq!(leftovers(&dir), Vec::<String>::new());
+
+    // With the tolerance reached, and in TCP mode (the controller keeps the tip on the path),
+    // nothing is said.
+    let out = postpro(&["--machine", "maho600e", "tilting.cl", "--mode", "g1", "-o", "-"], &dir);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(!text(&out.stderr).contains("stray up to"), "{}", text(&out.stderr));
+    let out = run(&["--mode", "tcp", "-o", "-", "--strict"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(!text(&out.stderr).contains("stray up to"), "{}", text(&out.stderr));
+
+    // `solve` says it in its summary.
+    let out = postpro(&["solve", "--machine", "maho600e", "tilting.cl", "--tolerance", "1e-9"], &dir);
+    let summary = text(&out.stdout);
+    let line = summary.lines().find(|l| l.starts_with("off path    ")).unwrap_or_else(|| panic!("{summary}"));
+    assert!(line.starts_with("off path    2 feed move(s) stray up to "), "{line}");
+    assert!(line.ends_with("(first at tilting.cl:10:1)"), "{line}");
+    let out = postpro(&["solve", "--machine", "maho600e", "tilting.cl"], &dir);
+    assert!(!text(&out.stdout).contains("off path"), "{}", text(&out.stdout));
+}

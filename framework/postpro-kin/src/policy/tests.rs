@@ -233,7 +233,9 @@ fn a_large_step_on_one_branch_is_motion_with_a_warning() {
     assert_eq!((large[0].step, large[0].span), (2, targets[2].span));
     let shown = large[0].decision.to_string();
     assert!(shown.starts_with("large rotary step: C ") && shown.ends_with("(70.000° in one block)"), "{shown}");
-    let added = linearize::linearize_noting(kin.as_ref(), &mut solved.steps, &mut solved.decisions, &policy);
+    let (added, unsettled) =
+        linearize::linearize_noting(kin.as_ref(), &mut solved.steps, &mut solved.decisions, &policy);
+    assert_eq!(unsettled.segments, 0, "{unsettled:?}");
     assert!(added > 0);
     let at = solved.decisions.iter().find(|d| matches!(d.decision, Decision::LargeRotaryStep { .. })).expect("kept");
     assert_eq!(solved.steps[at.step].span, targets[2].span, "the decision follows its step");
