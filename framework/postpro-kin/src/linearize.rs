@@ -54,6 +54,8 @@ pub fn linearize_noting(
 pub struct Linearizer {
     tolerance: f64,
     cone: f64,
+    /// Within this angle of the pole a move may change branch (the policy's pole passage).
+    passage: f64,
     previous: Option<Step>,
     /// Decisions waiting for their step (by the index the policy gave it).
     waiting: Vec<Noted>,
@@ -143,6 +145,7 @@ impl Linearizer {
         Linearizer {
             tolerance: policy.linearization_tolerance,
             cone: policy.singular_cone,
+            passage: policy.pole_passage,
             previous: None,
             waiting: Vec::new(),
             taken: 0,
@@ -203,8 +206,17 @@ impl Linearizer {
         {
             self.points.clear();
             let mut points = std::mem::take(&mut self.points);
-            let mut split = Split { shape: &mut self.shape, sols: &mut self.sols, out: &mut points, off: None };
-            self.inserted += split.subdivide(kin, &prev, &step, (self.tolerance, self.cone), 0);
+            let mut split = Split {
+                shape: &mut self.shape,
+                sols: &mut self.sols,
+                out: &mut points,
+                limits: (self.tolerance, self.cone, self.passage),
+                ends: (&prev, &step),
+                switches: None,
+                hold: None,
+                off: None,
+            };
+            self.inserted += split.subdivide(kin, &prev, &step, (0.0, 1.0), 0);
             if let Some(deviation) = split.off {
                 self.unsettled.add(step.span, deviation);
             }
@@ -264,19 +276,55 @@ struct Split<'a> {
     shape: &'a mut Shape,
     sols: &'a mut Solutions,
     out: &'a mut Vec<Step>,
+    /// `(tolerance, singular cone, pole passage)`.
+    limits: (f64, f64, f64),
+    /// The move split, from one step to the next: its points are at parameters in `0..1` of it.
+    ends: (&'a Step, &'a Step),
+    /// Whether the move changes branch (a pole passage), once a point falls near the pole.
+    switches: Option<bool>,
+    /// The free axis's values near the pole, once a point falls there.
+    hold: Option<Hold>,
     /// The largest deviation of the pieces left out of tolerance (checked, not replayed).
     off: Option<f64>,
 }
 
+/// Steps of the bisection that finds where a move comes within an angle of the pole, or leaves
+/// it (to 2⁻⁴⁰ of the move).
+const EDGE_STEPS: u32 = 40;
+
+/// The free axis's values along the stretch of the move split that lies within `angle` of the
+/// pole: the singular cone, or the pole passage where the move changes branch. There they are
+/// not taken from the pose but carried, linearly in the move's parameter, from the value the axis
+/// has where the move comes within the angle to the value where it leaves (the pose's own just
+/// outside, on the branch of the end step beyond; or the end step's, within); the other axes are
+/// fitted to them, the tip exact. So the axes are continuous where the stretch begins and ends,
+/// and a change of branch goes through the pole, as the policy's passage means: a value carried
+/// from farther away, or the other branch's, would jump, and no subdivision narrows a jump.
+#[derive(Clone, Copy, Debug)]
+struct Hold {
+    free: usize,
+    angle: f64,
+    /// `(parameter, value)` where the stretch begins, and where it ends.
+    enter: (f64, f64),
+    leave: (f64, f64),
+}
+
+impl Hold {
+    fn covers(&self, free: usize, angle: f64, s: f64) -> bool {
+        self.free == free && self.angle == angle && (self.enter.0..=self.leave.0).contains(&s)
+    }
+
+    fn at(&self, s: f64) -> f64 {
+        let ((s0, v0), (s1, v1)) = (self.enter, self.leave);
+        if s1 > s0 { v0 + (v1 - v0) * (s - s0) / (s1 - s0) } else { v0 }
+    }
+}
+
 impl Split<'_> {
-    fn subdivide(
-        &mut self,
-        kin: &dyn Kinematics,
-        a: &Step,
-        b: &Step,
-        (tolerance, cone): (f64, f64),
-        depth: u32,
-    ) -> usize {
+    /// Splits `a → b` (at parameters `sa`, `sb` of the move) until the tip stays within the
+    /// tolerance; returns the points inserted (also pushed to `out`, in order).
+    fn subdivide(&mut self, kin: &dyn Kinematics, a: &Step, b: &Step, (sa, sb): (f64, f64), depth: u32) -> usize {
+        let tolerance = self.limits.0;
         // Anything but "within tolerance" splits, a NaN deviation too.
         let within = |d: f64| d.partial_cmp(&tolerance).is_some_and(|o| o != std::cmp::Ordering::Greater);
         let mut over = None;
@@ -291,15 +339,17 @@ impl Split<'_> {
         if !split {
             return self.left(over);
         }
+        // The pose at the middle parameter of the piece (`pose_at`, to rounding).
         let pose =
             Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * 0.5, axis: slerp(&a.pose.axis, &b.pose.axis, 0.5) };
-        let Some(joints) = nearest_solution(kin, &pose, &a.joints.lerp(&b.joints, 0.5), cone, self.sols) else {
+        let s = 0.5 * (sa + sb);
+        let Some(joints) = self.solve(kin, &pose, a.joints.lerp(&b.joints, 0.5), s) else {
             return self.left(over);
         };
         let mid = Step { joints, pose, rapid: false, span: b.span, kind: StepKind::Linearized };
-        let left = self.subdivide(kin, a, &mid, (tolerance, cone), depth + 1);
+        let left = self.subdivide(kin, a, &mid, (sa, s), depth + 1);
         self.out.push(mid);
-        left + 1 + self.subdivide(kin, &mid, b, (tolerance, cone), depth + 1)
+        left + 1 + self.subdivide(kin, &mid, b, (s, sb), depth + 1)
     }
 
     /// A piece left as it is, `over` (mm) out of tolerance if checked so; inserts nothing.
@@ -309,6 +359,129 @@ impl Split<'_> {
         }
         0
     }
+
+    /// The pose at parameter `s` of the move: the tip on the segment, the tool axis on the great
+    /// circle.
+    fn pose_at(&self, s: f64) -> Pose {
+        let (a, b) = self.ends;
+        Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * s, axis: slerp(&a.pose.axis, &b.pose.axis, s) }
+    }
+
+    /// The axis values for `pose`, at parameter `s` of the move, nearest to `near`; near the pole
+    /// with the free axis held as [`Hold`] says.
+    fn solve(&mut self, kin: &dyn Kinematics, pose: &Pose, mut near: Joints, s: f64) -> Option<Joints> {
+        let (_, cone, passage) = self.limits;
+        kin.inverse(pose, self.sols);
+        let Some((free, distance)) = pole(self.sols) else {
+            return nearest_of(kin, pose, self.sols, &near, cone);
+        };
+        let angle = if distance < passage && self.switches(kin) {
+            passage
+        } else if distance < cone {
+            cone
+        } else {
+            // `switches` may have used the scratch solutions.
+            kin.inverse(pose, self.sols);
+            return nearest_of(kin, pose, self.sols, &near, cone);
+        };
+        let hold = match self.hold {
+            Some(hold) if hold.covers(free, angle, s) => hold,
+            _ => {
+                let hold = Hold {
+                    free,
+                    angle,
+                    enter: self.edge(kin, (free, angle), (self.ends.0, 0.0), s)?,
+                    leave: self.edge(kin, (free, angle), (self.ends.1, 1.0), s)?,
+                };
+                self.hold = Some(hold);
+                hold
+            }
+        };
+        near[free] = hold.at(s);
+        holding(kin, pose, free, &near)
+    }
+
+    /// Whether the move's end steps are on different branches (both regular).
+    fn switches(&mut self, kin: &dyn Kinematics) -> bool {
+        if let Some(switches) = self.switches {
+            return switches;
+        }
+        let (a, b) = self.ends;
+        let cone = self.limits.1;
+        let switches = match (branch_of(kin, a, cone, self.sols), branch_of(kin, b, cone, self.sols)) {
+            (Some(x), Some(y)) => x != y,
+            _ => false,
+        };
+        self.switches = Some(switches);
+        switches
+    }
+
+    /// Where the move, from the end step `end` (at parameter `at`) towards `inside` (a parameter
+    /// within `angle` of the pole), comes within the angle, and the free axis's value there: the
+    /// end step's own if it is within, else the pose's just outside, followed from the end step.
+    fn edge(
+        &mut self,
+        kin: &dyn Kinematics,
+        (free, angle): (usize, f64),
+        (end, at): (&Step, f64),
+        inside: f64,
+    ) -> Option<(f64, f64)> {
+        let cone = self.limits.1;
+        let near_pole = |sols: &Solutions| pole(sols).is_some_and(|(_, d)| d < angle);
+        kin.inverse(&self.pose_at(at), self.sols);
+        if near_pole(self.sols) {
+            return Some((at, end.joints[free]));
+        }
+        let (mut outside, mut joints, mut inside) = (at, end.joints, inside);
+        for _ in 0..EDGE_STEPS {
+            let s = 0.5 * (outside + inside);
+            let pose = self.pose_at(s);
+            kin.inverse(&pose, self.sols);
+            if near_pole(self.sols) {
+                inside = s;
+            } else {
+                joints = nearest_of(kin, &pose, self.sols, &joints, cone)?;
+                outside = s;
+            }
+        }
+        Some((outside, joints[free]))
+    }
+}
+
+/// The solutions' singularity: the rotary axis it frees and the nearest solution's distance (rad).
+fn pole(sols: &Solutions) -> Option<(usize, f64)> {
+    sols.iter().filter_map(|s| s.pole).min_by(|x, y| x.1.total_cmp(&y.1))
+}
+
+/// The rotary axis left free by a solution within `cone` of its singularity.
+fn free_axis(sols: &Solutions, cone: f64) -> Option<usize> {
+    pole(sols).filter(|&(_, d)| d < cone).map(|(free, _)| free)
+}
+
+/// The branch of the solution `step` is at (its rotary axes equal to one's, to a turn); none
+/// within the singular cone, where the free axis is carried.
+fn branch_of(kin: &dyn Kinematics, step: &Step, cone: f64, sols: &mut Solutions) -> Option<u8> {
+    kin.inverse(&step.pose, sols);
+    if free_axis(sols, cone).is_some() {
+        return None;
+    }
+    let axes = &kin.machine().axes;
+    let rotary = || (0..axes.len()).filter(|&i| axes[i].kind == postpro_machine::model::AxisKind::Rotary);
+    let turn = |d: f64| (d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round()).abs();
+    sols.iter().find(|s| rotary().all(|i| turn(s.joints[i] - step.joints[i]) < 1e-6)).map(|s| s.branch)
+}
+
+/// The solution for `pose` with the free axis at `near[free]`, the other rotary axes at the turn
+/// nearest `near`.
+fn holding(kin: &dyn Kinematics, pose: &Pose, free: usize, near: &Joints) -> Option<Joints> {
+    let mut j = kin.inverse_holding(pose, free, near[free])?;
+    for (i, axis) in kin.machine().axes.iter().enumerate() {
+        if axis.kind == postpro_machine::model::AxisKind::Rotary && i != free {
+            j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
+        }
+    }
+    j[free] = near[free];
+    Some(j)
 }
 
 /// The inverse solution closest to `near` (rotary angles unwound next to it). Within the
@@ -322,17 +495,21 @@ pub fn nearest_solution(
     sols: &mut Solutions,
 ) -> Option<Joints> {
     kin.inverse(pose, sols);
-    let machine = kin.machine();
-    if let Some((free, _)) = sols.iter().find_map(|s| s.pole.filter(|&(_, d)| d < singular_cone)) {
-        let mut j = kin.inverse_holding(pose, free, near[free])?;
-        for (i, axis) in machine.axes.iter().enumerate() {
-            if axis.kind == postpro_machine::model::AxisKind::Rotary && i != free {
-                j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
-            }
-        }
-        j[free] = near[free];
-        return Some(j);
+    nearest_of(kin, pose, sols, near, singular_cone)
+}
+
+/// [`nearest_solution`] among `sols`, the inverse solutions of `pose`.
+fn nearest_of(
+    kin: &dyn Kinematics,
+    pose: &Pose,
+    sols: &Solutions,
+    near: &Joints,
+    singular_cone: f64,
+) -> Option<Joints> {
+    if let Some(free) = free_axis(sols, singular_cone) {
+        return holding(kin, pose, free, near);
     }
+    let machine = kin.machine();
     sols.iter()
         .map(|s| {
             let mut j = s.joints;

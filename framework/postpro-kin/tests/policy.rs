@@ -203,6 +203,53 @@ fn largest_tip_deviation(kin: &dyn Kinematics, solved: &Solved) -> f64 {
     worst
 }
 
+/// A feed move that passes 0.34° from the pole, 76 mm off the C axis (line 224 of
+/// `APT_Variable_Axis.txt`): the policy takes it as a pole passage, C swinging 44° while the tip
+/// moves 7.6 mm. On the Mikron it passes through the singular cone (0.5°), where C is carried; on
+/// the Haas outside it (0.1°), but within its pole passage (2°), on another branch at each end.
+/// Either way the points linearization adds keep the axes continuous (C carried from where the
+/// stretch near the pole begins to where it ends, the tilt through zero): no piece jumps half a
+/// turn of C, and every piece comes within tolerance.
+#[test]
+fn a_move_through_the_singular_cone_is_linearised_within_tolerance() {
+    for name in ["mikron", "haas-umc750"] {
+        let m = machine(name);
+        let kin = solver_for(&m);
+        let pose = |tip: [f64; 3], axis: [f64; 3]| Pose {
+            tip: Point3::from(tip),
+            axis: Unit::new_normalize(Vector3::from(axis)),
+        };
+        let targets: Vec<Target> = [
+            pose([-76.2, 7.62, 31.191], [-0.0097118, -0.0059519, 0.9999351]),
+            pose([-76.2, 15.24, 31.237], [0.0262469, -0.0058125, 0.9996386]),
+        ]
+        .into_iter()
+        .enumerate()
+        .map(|(k, pose)| Target { pose, rapid: false, span: Span::new(k + 1, k + 2) })
+        .collect();
+        let mut solved = choose(kin.as_ref(), &targets, &m.policy, None).expect("a pole passage is motion");
+        let c = m.axis_index("C").expect("C");
+        let swing = (solved.steps[1].joints[c] - solved.steps[0].joints[c]).to_degrees();
+        assert!(swing.abs() > 40.0, "{name}: C swings {swing}°");
+        let (added, unsettled) =
+            linearize::linearize_noting(kin.as_ref(), &mut solved.steps, &mut solved.decisions, &m.policy);
+        assert_eq!(unsettled.segments, 0, "{name}: {unsettled:?}");
+        let after = largest_tip_deviation(kin.as_ref(), &solved);
+        assert!(after <= m.policy.linearization_tolerance, "{name}: {after} mm after {added} points");
+        assert!(added < 1000, "{name}: {added} points");
+        let largest_turn = solved.steps.windows(2).map(|w| (w[1].joints[c] - w[0].joints[c]).abs()).fold(0.0, f64::max);
+        assert!(largest_turn.to_degrees() < 5.0, "{name}: C turns {}° in one piece", largest_turn.to_degrees());
+        // The tool axis leaves the programmed one by no more than its distance from the pole.
+        let mut sols = postpro_kin::Solutions::new();
+        for s in &solved.steps {
+            let off = kin.forward(&s.joints).axis.angle(&s.pose.axis);
+            kin.inverse(&s.pose, &mut sols);
+            let pole = sols.iter().filter_map(|s| s.pole).map(|(_, d)| d).fold(f64::INFINITY, f64::min);
+            assert!(off <= pole + 1e-9, "{name}: the tool axis is {off} rad off, {pole} rad from the pole");
+        }
+    }
+}
+
 /// Near the pole a small change of the tool axis swings C by 90° in one block: on the Haas
 /// UMC-750 (part 60 mm off the C axis) that is motion, linearised until the tip stays within the
 /// tolerance of every programmed segment, with a warning for the large step.
