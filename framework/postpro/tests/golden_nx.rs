@@ -12,7 +12,7 @@ use std::path::Path;
 
 use tests::compare::{arcs_match, motions_in_order};
 use tests::golden::{self, Case, fanuc};
-use tests::nc::{Program, Units};
+use tests::nc::{MotionKind, Program, Units};
 
 use common::{postpro, scratch, stderr};
 
@@ -64,6 +64,32 @@ fn the_simultaneous_five_axis_program_is_nx_s_block_for_block() {
         });
         assert!(found, "{block} is in ours");
     }
+}
+
+/// In G1 the points linearization adds are written, and on this file they go round the pole:
+/// NX's passages swing C by up to 79° in one block (the controller's TCP keeps the tip on the
+/// part). Ours must bring every block within the tolerance, which needs the axes continuous
+/// along each move: a point on the other branch turned C by half a turn in one block, the tip
+/// 76 mm off the path (line 224).
+#[test]
+fn in_g1_the_moves_round_the_pole_stay_within_tolerance() {
+    let case = case("/Variable_Axis");
+    let dir = scratch("golden_nx", "Variable_Axis_g1", &[]);
+    let input = case.input.display().to_string();
+    let o = postpro(&["--machine", "haas-umc750", "--no-predict", "--mode", "g1", "-o", "g1.nc", &input], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("stray"), "every move within tolerance:\n{}", stderr(&o));
+    let ours = read(&dir.join("g1.nc"));
+    let (mut largest, mut previous): (f64, Option<f64>) = (0.0, None);
+    for m in &ours.motions {
+        if let (Some(c), Some(before)) = (m.rotary.c, previous)
+            && m.kind == MotionKind::Feed
+        {
+            largest = largest.max((c - before).abs());
+        }
+        previous = m.rotary.c.or(previous);
+    }
+    assert!(largest > 10.0 && largest < 79.0, "the largest turn of C in one feed block: {largest}°");
 }
 
 #[test]
