@@ -380,8 +380,6 @@ impl Split<'_> {
         } else if distance < cone {
             cone
         } else {
-            // `switches` may have used the scratch solutions.
-            kin.inverse(pose, self.sols);
             return nearest_of(kin, pose, self.sols, &near, cone);
         };
         let hold = match self.hold {
@@ -407,8 +405,8 @@ impl Split<'_> {
             return switches;
         }
         let (a, b) = self.ends;
-        let cone = self.limits.1;
-        let switches = match (branch_of(kin, a, cone, self.sols), branch_of(kin, b, cone, self.sols)) {
+        let (cone, mut sols) = (self.limits.1, Solutions::new());
+        let switches = match (branch_of(kin, a, cone, &mut sols), branch_of(kin, b, cone, &mut sols)) {
             (Some(x), Some(y)) => x != y,
             _ => false,
         };
