@@ -9,7 +9,7 @@
 //!   discontinuities), every non-obvious decision reported.
 //! - [`bspline`]: the cubic B-spline a CNC interpolates through axis positions (Siemens
 //!   `BSPLINE`), fitted within tolerance, with its derivatives.
-//! - [`linearize`]: extra points so that the tool tip, moving with the axes interpolated
+//! - [`linearize`](mod@linearize): extra points so that the tool tip, moving with the axes interpolated
 //!   linearly, stays within tolerance of the programmed segment.
 
 mod bits;

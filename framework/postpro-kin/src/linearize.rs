@@ -1,7 +1,10 @@
 //! Linearization: between two points the CNC interpolates the axes linearly, so the tool tip
 //! follows a curve in the part frame, not the programmed segment (paper 002; paper 001 Fig. 2).
 //! Points are inserted (tip linear in the part frame, tool axis along the great circle) until the
-//! tip stays within the tolerance of the segment.
+//! tip stays within the tolerance of the segment. Near the pole the free axis of the points is
+//! carried across the stretch of the move there (`Hold`), so that the axes stay continuous; a
+//! move that cannot be brought within the tolerance is counted ([`Unsettled`]), never left
+//! silently.
 
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 use postpro_cl::Span;
@@ -18,7 +21,7 @@ const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// Inserts points between feed moves until the tool tip, with the axes interpolated linearly,
 /// stays within the policy's tolerance (mm) of every programmed segment. Returns the number
-/// inserted. A point within the singular cone takes its free axis from the interpolation.
+/// inserted. Near the pole a point's free axis is carried, not taken from its pose (`Hold`).
 pub fn linearize(kin: &dyn Kinematics, steps: &mut Vec<Step>, policy: &Policy) -> usize {
     linearize_noting(kin, steps, &mut Vec::new(), policy).0
 }
