@@ -10,14 +10,18 @@ use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 use postpro_cl::Span;
 
 use crate::bits::Bits;
-use crate::policy::{Collected, Noted, Policy, Step, StepKind, StepSink};
+use crate::policy::{Collected, Noted, Policy, Step, StepKind, StepSink, nearest_the_pole, passes_pole, pole_distance};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
 
-/// Deepest subdivision of one segment (2¹² pieces).
+/// Deepest subdivision of one segment (2¹² pieces), or of the stretch of it held near the pole.
 const MAX_DEPTH: u32 = 12;
+/// The most levels a held stretch adds to [`MAX_DEPTH`], for its shortness.
+const MAX_HELD_DEPTH: u32 = 28;
 /// Where the deviation is sampled on each piece.
 const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
+/// Where it is sampled on the pieces of a move near the pole.
+const SAMPLES_NEAR_POLE: [f64; 7] = [0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875];
 
 /// Inserts points between feed moves until the tool tip, with the axes interpolated linearly,
 /// stays within the policy's tolerance (mm) of every programmed segment. Returns the number
@@ -215,7 +219,9 @@ impl Linearizer {
                 out: &mut points,
                 limits: (self.tolerance, self.cone, self.passage),
                 ends: (&prev, &step),
-                switches: None,
+                near_pole: false,
+                passes: None,
+                branches: None,
                 hold: None,
                 off: None,
             };
@@ -268,7 +274,12 @@ impl StepSink for Linearizing<'_> {
 
 /// The largest distance of the interpolated tip from the segment `a.tip → b.tip`.
 pub fn deviation(kin: &dyn Kinematics, a: &Step, b: &Step) -> f64 {
-    SAMPLES
+    deviation_at(kin, a, b, &SAMPLES)
+}
+
+/// [`deviation`] sampled at `samples` (parameters in `0..1`).
+fn deviation_at(kin: &dyn Kinematics, a: &Step, b: &Step, samples: &[f64]) -> f64 {
+    samples
         .iter()
         .map(|&t| distance_to_segment(&kin.forward(&a.joints.lerp(&b.joints, t)).tip, &a.pose.tip, &b.pose.tip))
         .fold(0.0, f64::max)
@@ -283,8 +294,14 @@ struct Split<'a> {
     limits: (f64, f64, f64),
     /// The move split, from one step to the next: its points are at parameters in `0..1` of it.
     ends: (&'a Step, &'a Step),
-    /// Whether the move changes branch (a pole passage), once a point falls near the pole.
-    switches: Option<bool>,
+    /// A point of the move fell near the pole (within the pole passage and the move's own turn
+    /// of the tool axis).
+    near_pole: bool,
+    /// Whether the move passes the pole, once a point falls near it.
+    passes: Option<bool>,
+    /// The branches of the end steps (none within the singular cone), once a point falls near
+    /// the pole.
+    branches: Option<(Option<u8>, Option<u8>)>,
     /// The free axis's values near the pole, once a point falls there.
     hold: Option<Hold>,
     /// The largest deviation of the pieces left out of tolerance (checked, not replayed).
@@ -331,13 +348,16 @@ impl Split<'_> {
         // Anything but "within tolerance" splits, a NaN deviation too.
         let within = |d: f64| d.partial_cmp(&tolerance).is_some_and(|o| o != std::cmp::Ordering::Greater);
         let mut over = None;
+        let max_depth = self.max_depth((sa, sb));
+        // Near the pole the axes turn unevenly along a piece: its deviation is sampled finer.
+        let samples: &[f64] = if self.near_pole { &SAMPLES_NEAR_POLE } else { &SAMPLES };
         let split = self.shape.split(|| {
-            let d = deviation(kin, a, b);
+            let d = deviation_at(kin, a, b, samples);
             if within(d) {
                 return false;
             }
             over = Some(d);
-            depth < MAX_DEPTH
+            depth < max_depth
         });
         if !split {
             return self.left(over);
@@ -355,6 +375,18 @@ impl Split<'_> {
         left + 1 + self.subdivide(kin, &mid, b, (s, sb), depth + 1)
     }
 
+    /// The deepest subdivision of the piece `sa..sb`: [`MAX_DEPTH`] below the move, or below the
+    /// held stretch near the pole it reaches into (a short stretch where the free axis may turn
+    /// far).
+    fn max_depth(&self, (sa, sb): (f64, f64)) -> u32 {
+        match self.hold {
+            Some(h) if sa < h.leave.0 && h.enter.0 < sb && h.leave.0 > h.enter.0 => {
+                MAX_DEPTH + (1.0 / (h.leave.0 - h.enter.0)).log2().ceil().clamp(0.0, f64::from(MAX_HELD_DEPTH)) as u32
+            }
+            _ => MAX_DEPTH,
+        }
+    }
+
     /// A piece left as it is, `over` (mm) out of tolerance if checked so; inserts nothing.
     fn left(&mut self, over: Option<f64>) -> usize {
         if let Some(d) = over {
@@ -370,78 +402,125 @@ impl Split<'_> {
         Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * s, axis: slerp(&a.pose.axis, &b.pose.axis, s) }
     }
 
-    /// The axis values for `pose`, at parameter `s` of the move, nearest to `near`; near the pole
-    /// with the free axis held as [`Hold`] says.
+    /// The axis values for `pose`, at parameter `s` of the move, nearest to `near`. Near the pole
+    /// (within the pole passage and the move's own turn of the tool axis) the free axis is held
+    /// as [`Hold`] says where the move is within the singular cone (an end step within it
+    /// included), or within the pole passage on a move between branches that passes the pole;
+    /// elsewhere the point is on the branch of the end step on its side: there the nearest
+    /// solution may be the other branch's, the free axis swinging fast.
     fn solve(&mut self, kin: &dyn Kinematics, pose: &Pose, mut near: Joints, s: f64) -> Option<Joints> {
         let (_, cone, passage) = self.limits;
+        let (a, b) = self.ends;
         kin.inverse(pose, self.sols);
-        let Some((free, distance)) = pole(self.sols) else {
+        let Some((free, distance)) = pole(self.sols).filter(|&(_, d)| d < passage + a.pose.axis.angle(&b.pose.axis))
+        else {
             return nearest_of(kin, pose, self.sols, &near, cone);
         };
-        let angle = if distance < passage && self.switches(kin) {
-            passage
-        } else if distance < cone {
-            cone
-        } else {
-            return nearest_of(kin, pose, self.sols, &near, cone);
-        };
-        let hold = match self.hold {
-            Some(hold) if hold.covers(free, angle, s) => hold,
-            _ => {
-                let hold = Hold {
-                    free,
-                    angle,
-                    enter: self.edge(kin, (free, angle), (self.ends.0, 0.0), s)?,
-                    leave: self.edge(kin, (free, angle), (self.ends.1, 1.0), s)?,
-                };
-                self.hold = Some(hold);
-                hold
+        self.near_pole = true;
+        let (from, to) = self.branches(kin);
+        let hold = match (from, to) {
+            // Branches that meet away from the pole (at the edge of a head's reach): as far.
+            (Some(x), Some(y)) if x != y && !self.passes_pole(kin) => {
+                return nearest_of(kin, pose, self.sols, &near, cone);
             }
+            (Some(x), Some(y)) if x != y => Some(self.hold(kin, (free, passage), None)?),
+            _ if distance < cone => Some(self.hold(kin, (free, cone), Some(s))?),
+            // An end within the cone: the stretch from it to the cone's edge is held, however
+            // short.
+            (None, _) => Some(self.hold(kin, (free, cone), Some(0.0))?),
+            (_, None) => Some(self.hold(kin, (free, cone), Some(1.0))?),
+            _ => None,
         };
-        near[free] = hold.at(s);
-        holding(kin, pose, free, &near)
+        match hold {
+            Some(hold) if hold.covers(free, hold.angle, s) => {
+                near[free] = hold.at(s);
+                holding(kin, pose, free, &near)
+            }
+            Some(hold) => {
+                let side = if s < hold.enter.0 { from } else { to };
+                on_branch(kin, pose, self.sols, side, &near, cone)
+            }
+            None => on_branch(kin, pose, self.sols, from.or(to), &near, cone),
+        }
     }
 
-    /// Whether the move's end steps are on different branches (both regular).
-    fn switches(&mut self, kin: &dyn Kinematics) -> bool {
-        if let Some(switches) = self.switches {
-            return switches;
-        }
+    /// Whether the move's tool axis comes within the pole passage of the pole (as the policy
+    /// decides a passage; an end within the singular cone included).
+    fn passes_pole(&mut self, kin: &dyn Kinematics) -> bool {
+        let (a, b) = self.ends;
+        let passage = self.limits.2;
+        *self.passes.get_or_insert_with(|| {
+            let mut probe = Solutions::new();
+            let mut distance = |step: &Step| {
+                kin.inverse(&step.pose, &mut probe);
+                pole_distance(&probe)
+            };
+            let (da, db) = (distance(a), distance(b));
+            passes_pole(kin, (&a.pose, da), (&b.pose, db), passage, &mut probe)
+        })
+    }
+
+    /// The branches of the move's end steps (none for one within the singular cone).
+    fn branches(&mut self, kin: &dyn Kinematics) -> (Option<u8>, Option<u8>) {
         let (a, b) = self.ends;
         let (cone, mut sols) = (self.limits.1, Solutions::new());
-        let switches = match (branch_of(kin, a, cone, &mut sols), branch_of(kin, b, cone, &mut sols)) {
-            (Some(x), Some(y)) => x != y,
-            _ => false,
-        };
-        self.switches = Some(switches);
-        switches
+        *self.branches.get_or_insert_with(|| (branch_of(kin, a, cone, &mut sols), branch_of(kin, b, cone, &mut sols)))
     }
 
-    /// Where the move, from the end step `end` (at parameter `at`) towards `inside` (a parameter
-    /// within `angle` of the pole), comes within the angle, and the free axis's value there: the
-    /// end step's own if it is within, else the pose's just outside, followed from the end step.
+    /// The stretch of the move within `angle` of the pole (`free` the axis it frees) around the
+    /// parameter `inside`, or, without it, around where the move comes nearest the pole; the one
+    /// found before if it is that.
+    fn hold(&mut self, kin: &dyn Kinematics, (free, angle): (usize, f64), inside: Option<f64>) -> Option<Hold> {
+        if let Some(hold) = self.hold
+            && hold.free == free
+            && hold.angle == angle
+            && inside.is_none_or(|s| hold.covers(free, angle, s))
+        {
+            return Some(hold);
+        }
+        let (a, b) = self.ends;
+        let inside = match inside {
+            Some(s) => s,
+            None => nearest_the_pole(kin, (&a.pose, &b.pose), angle, &mut Solutions::new()).0,
+        };
+        let (from, to) = self.branches(kin);
+        let hold = Hold {
+            free,
+            angle,
+            enter: self.edge(kin, (free, angle), (a, 0.0, from), inside)?,
+            leave: self.edge(kin, (free, angle), (b, 1.0, to), inside)?,
+        };
+        self.hold = Some(hold);
+        Some(hold)
+    }
+
+    /// Where the move, from the end step `end` (at parameter `at`, on `branch`) towards `inside`
+    /// (a parameter within `angle` of the pole), comes within the angle, and the free axis's
+    /// value there: the end step's own if it is within, else the pose's just outside, followed
+    /// from the end step on its branch.
     fn edge(
-        &mut self,
+        &self,
         kin: &dyn Kinematics,
         (free, angle): (usize, f64),
-        (end, at): (&Step, f64),
+        (end, at, branch): (&Step, f64, Option<u8>),
         inside: f64,
     ) -> Option<(f64, f64)> {
         let cone = self.limits.1;
+        let mut sols = Solutions::new();
         let near_pole = |sols: &Solutions| pole(sols).is_some_and(|(_, d)| d < angle);
-        kin.inverse(&self.pose_at(at), self.sols);
-        if near_pole(self.sols) {
+        kin.inverse(&self.pose_at(at), &mut sols);
+        if near_pole(&sols) {
             return Some((at, end.joints[free]));
         }
         let (mut outside, mut joints, mut inside) = (at, end.joints, inside);
         for _ in 0..EDGE_STEPS {
             let s = 0.5 * (outside + inside);
             let pose = self.pose_at(s);
-            kin.inverse(&pose, self.sols);
-            if near_pole(self.sols) {
+            kin.inverse(&pose, &mut sols);
+            if near_pole(&sols) {
                 inside = s;
             } else {
-                joints = nearest_of(kin, &pose, self.sols, &joints, cone)?;
+                joints = on_branch(kin, &pose, &sols, branch, &joints, cone)?;
                 outside = s;
             }
         }
@@ -470,6 +549,28 @@ fn branch_of(kin: &dyn Kinematics, step: &Step, cone: f64, sols: &mut Solutions)
     let rotary = || (0..axes.len()).filter(|&i| axes[i].kind == postpro_machine::model::AxisKind::Rotary);
     let turn = |d: f64| (d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round()).abs();
     sols.iter().find(|s| rotary().all(|i| turn(s.joints[i] - step.joints[i]) < 1e-6)).map(|s| s.branch)
+}
+
+/// The solution among `sols` (of `pose`) on `branch`, its rotary axes at the turn nearest `near`;
+/// without a branch, or none on it, [`nearest_of`].
+fn on_branch(
+    kin: &dyn Kinematics,
+    pose: &Pose,
+    sols: &Solutions,
+    branch: Option<u8>,
+    near: &Joints,
+    singular_cone: f64,
+) -> Option<Joints> {
+    let Some(on) = sols.iter().find(|s| Some(s.branch) == branch) else {
+        return nearest_of(kin, pose, sols, near, singular_cone);
+    };
+    let mut j = on.joints;
+    for (i, axis) in kin.machine().axes.iter().enumerate() {
+        if axis.kind == postpro_machine::model::AxisKind::Rotary {
+            j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
+        }
+    }
+    Some(j)
 }
 
 /// The solution for `pose` with the free axis at `near[free]`, the other rotary axes at the turn

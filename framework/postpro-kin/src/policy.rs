@@ -526,7 +526,7 @@ fn best_state(layer: &[Node; 2]) -> usize {
 
 /// The smallest distance (rad) from a pose's solutions to the pole of their free axis; infinite
 /// when no solution has one.
-fn pole_distance(sols: &Solutions) -> f64 {
+pub(crate) fn pole_distance(sols: &Solutions) -> f64 {
     sols.iter().filter_map(|s| s.pole.map(|(_, d)| d)).fold(f64::INFINITY, f64::min)
 }
 
@@ -618,9 +618,14 @@ pub use place::Placer;
 /// Whether the tool axis, moving along the great circle from pose `a` to pose `b` (each given
 /// with its distance from the pole), passes within `cone` of the pole: a branch change between
 /// them is then a pole passage, not a discontinuity. The distance changes by at most the angle
-/// moved, so most pairs are decided at once; otherwise the arc is sampled at steps of the cone
-/// and the smallest distance refined by golden-section search.
-fn passes_pole(kin: &dyn Kinematics, a: (&Pose, f64), b: (&Pose, f64), cone: f64, probe: &mut Solutions) -> bool {
+/// moved, so most pairs are decided at once; otherwise [`nearest_the_pole`] searches the arc.
+pub(crate) fn passes_pole(
+    kin: &dyn Kinematics,
+    a: (&Pose, f64),
+    b: (&Pose, f64),
+    cone: f64,
+    probe: &mut Solutions,
+) -> bool {
     let ((pa, da), (pb, db)) = (a, b);
     if da < cone || db < cone {
         return true;
@@ -629,33 +634,47 @@ fn passes_pole(kin: &dyn Kinematics, a: (&Pose, f64), b: (&Pose, f64), cone: f64
     if (da + db - span) / 2.0 >= cone {
         return false;
     }
+    nearest_the_pole(kin, (pa, pb), cone, probe).1 < cone
+}
+
+/// Where the tool axis, moving along the great circle from pose `a` to pose `b`, comes nearest the
+/// pole: `(t, distance)`, `t` in `0..=1` along the arc. The arc is sampled at steps of `step`
+/// (at most 4096) and the smallest distance refined by golden-section search between the
+/// neighbours of the best sample.
+pub(crate) fn nearest_the_pole(
+    kin: &dyn Kinematics,
+    (pa, pb): (&Pose, &Pose),
+    step: f64,
+    probe: &mut Solutions,
+) -> (f64, f64) {
     let mut distance = |t: f64| {
         let pose = Pose { tip: pa.tip, axis: slerp(&pa.axis, &pb.axis, t) };
         kin.inverse(&pose, probe);
         pole_distance(probe)
     };
-    let n = ((span / cone).ceil() as usize).clamp(2, 4096);
+    let n = ((pa.axis.angle(&pb.axis) / step).ceil() as usize).clamp(2, 4096);
     let (mut best, mut best_t) = (f64::INFINITY, 0.0);
-    for k in 1..n {
+    for k in 0..=n {
         let t = k as f64 / n as f64;
         let d = distance(t);
         if d < best {
             (best, best_t) = (d, t);
         }
     }
-    if best < cone {
-        return true;
-    }
-    // Golden-section search between the neighbours of the best sample.
     let g = (5f64.sqrt() - 1.0) / 2.0;
     let (mut lo, mut hi) = ((best_t - 1.0 / n as f64).max(0.0), (best_t + 1.0 / n as f64).min(1.0));
     while hi - lo > 1e-9 {
         let (x1, x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
         let (d1, d2) = (distance(x1), distance(x2));
-        best = best.min(d1).min(d2);
+        if d1 < best {
+            (best, best_t) = (d1, x1);
+        }
+        if d2 < best {
+            (best, best_t) = (d2, x2);
+        }
         if d1 < d2 { hi = x2 } else { lo = x1 }
     }
-    best < cone
+    (best_t, best)
 }
 
 /// The unwinding of endless axes at rapids: beyond the allowed winding from home, the
