@@ -219,9 +219,8 @@ impl Linearizer {
                 out: &mut points,
                 limits: (self.tolerance, self.cone, self.passage),
                 ends: (&prev, &step),
-                near_pole: false,
+                end_poles: None,
                 passes: None,
-                branches: None,
                 hold: None,
                 off: None,
             };
@@ -294,14 +293,12 @@ struct Split<'a> {
     limits: (f64, f64, f64),
     /// The move split, from one step to the next: its points are at parameters in `0..1` of it.
     ends: (&'a Step, &'a Step),
-    /// A point of the move fell near the pole (within the pole passage and the move's own turn
-    /// of the tool axis).
-    near_pole: bool,
+    /// The end steps' branches (none within the singular cone) and distances from the pole,
+    /// once a point of the move falls near the pole (within the pole passage and the move's own
+    /// turn of the tool axis).
+    end_poles: Option<[(Option<u8>, f64); 2]>,
     /// Whether the move passes the pole, once a point falls near it.
     passes: Option<bool>,
-    /// The branches of the end steps (none within the singular cone), once a point falls near
-    /// the pole.
-    branches: Option<(Option<u8>, Option<u8>)>,
     /// The free axis's values near the pole, once a point falls there.
     hold: Option<Hold>,
     /// The largest deviation of the pieces left out of tolerance (checked, not replayed).
@@ -330,8 +327,8 @@ struct Hold {
 }
 
 impl Hold {
-    fn covers(&self, free: usize, angle: f64, s: f64) -> bool {
-        self.free == free && self.angle == angle && (self.enter.0..=self.leave.0).contains(&s)
+    fn covers(&self, s: f64) -> bool {
+        (self.enter.0..=self.leave.0).contains(&s)
     }
 
     fn at(&self, s: f64) -> f64 {
@@ -350,7 +347,7 @@ impl Split<'_> {
         let mut over = None;
         let max_depth = self.max_depth((sa, sb));
         // Near the pole the axes turn unevenly along a piece: its deviation is sampled finer.
-        let samples: &[f64] = if self.near_pole { &SAMPLES_NEAR_POLE } else { &SAMPLES };
+        let samples: &[f64] = if self.end_poles.is_some() { &SAMPLES_NEAR_POLE } else { &SAMPLES };
         let split = self.shape.split(|| {
             let d = deviation_at(kin, a, b, samples);
             if within(d) {
@@ -416,7 +413,6 @@ impl Split<'_> {
         else {
             return nearest_of(kin, pose, self.sols, &near, cone);
         };
-        self.near_pole = true;
         let (from, to) = self.branches(kin);
         let hold = match (from, to) {
             // Branches that meet away from the pole (at the edge of a head's reach): as far.
@@ -432,7 +428,7 @@ impl Split<'_> {
             _ => None,
         };
         match hold {
-            Some(hold) if hold.covers(free, hold.angle, s) => {
+            Some(hold) if hold.covers(s) => {
                 near[free] = hold.at(s);
                 holding(kin, pose, free, &near)
             }
@@ -447,24 +443,27 @@ impl Split<'_> {
     /// Whether the move's tool axis comes within the pole passage of the pole (as the policy
     /// decides a passage; an end within the singular cone included).
     fn passes_pole(&mut self, kin: &dyn Kinematics) -> bool {
+        if let Some(passes) = self.passes {
+            return passes;
+        }
+        let [(_, da), (_, db)] = self.end_poles(kin);
         let (a, b) = self.ends;
-        let passage = self.limits.2;
-        *self.passes.get_or_insert_with(|| {
-            let mut probe = Solutions::new();
-            let mut distance = |step: &Step| {
-                kin.inverse(&step.pose, &mut probe);
-                pole_distance(&probe)
-            };
-            let (da, db) = (distance(a), distance(b));
-            passes_pole(kin, (&a.pose, da), (&b.pose, db), passage, &mut probe)
-        })
+        let passes = passes_pole(kin, (&a.pose, da), (&b.pose, db), self.limits.2, &mut Solutions::new());
+        self.passes = Some(passes);
+        passes
     }
 
     /// The branches of the move's end steps (none for one within the singular cone).
     fn branches(&mut self, kin: &dyn Kinematics) -> (Option<u8>, Option<u8>) {
+        let [(from, _), (to, _)] = self.end_poles(kin);
+        (from, to)
+    }
+
+    /// The end steps' branches and distances from the pole, found once a move.
+    fn end_poles(&mut self, kin: &dyn Kinematics) -> [(Option<u8>, f64); 2] {
         let (a, b) = self.ends;
         let (cone, mut sols) = (self.limits.1, Solutions::new());
-        *self.branches.get_or_insert_with(|| (branch_of(kin, a, cone, &mut sols), branch_of(kin, b, cone, &mut sols)))
+        *self.end_poles.get_or_insert_with(|| [a, b].map(|end| branch_of(kin, end, cone, &mut sols)))
     }
 
     /// The stretch of the move within `angle` of the pole (`free` the axis it frees) around the
@@ -474,7 +473,7 @@ impl Split<'_> {
         if let Some(hold) = self.hold
             && hold.free == free
             && hold.angle == angle
-            && inside.is_none_or(|s| hold.covers(free, angle, s))
+            && inside.is_none_or(|s| hold.covers(s))
         {
             return Some(hold);
         }
@@ -538,17 +537,18 @@ fn free_axis(sols: &Solutions, cone: f64) -> Option<usize> {
     pole(sols).filter(|&(_, d)| d < cone).map(|(free, _)| free)
 }
 
-/// The branch of the solution `step` is at (its rotary axes equal to one's, to a turn); none
-/// within the singular cone, where the free axis is carried.
-fn branch_of(kin: &dyn Kinematics, step: &Step, cone: f64, sols: &mut Solutions) -> Option<u8> {
+/// The branch of the solution `step` is at (its rotary axes equal to one's, to a turn), none
+/// within the singular cone, where the free axis is carried; and its distance from the pole.
+fn branch_of(kin: &dyn Kinematics, step: &Step, cone: f64, sols: &mut Solutions) -> (Option<u8>, f64) {
     kin.inverse(&step.pose, sols);
-    if free_axis(sols, cone).is_some() {
-        return None;
+    let distance = pole_distance(sols);
+    if distance < cone {
+        return (None, distance);
     }
     let axes = &kin.machine().axes;
     let rotary = || (0..axes.len()).filter(|&i| axes[i].kind == postpro_machine::model::AxisKind::Rotary);
     let turn = |d: f64| (d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round()).abs();
-    sols.iter().find(|s| rotary().all(|i| turn(s.joints[i] - step.joints[i]) < 1e-6)).map(|s| s.branch)
+    (sols.iter().find(|s| rotary().all(|i| turn(s.joints[i] - step.joints[i]) < 1e-6)).map(|s| s.branch), distance)
 }
 
 /// The solution among `sols` (of `pose`) on `branch`, its rotary axes at the turn nearest `near`;
@@ -564,24 +564,23 @@ fn on_branch(
     let Some(on) = sols.iter().find(|s| Some(s.branch) == branch) else {
         return nearest_of(kin, pose, sols, near, singular_cone);
     };
-    let mut j = on.joints;
+    Some(turned_near(kin, on.joints, near, None))
+}
+
+/// `joints` with each rotary axis but `except` at the turn nearest its value in `near`.
+fn turned_near(kin: &dyn Kinematics, mut joints: Joints, near: &Joints, except: Option<usize>) -> Joints {
     for (i, axis) in kin.machine().axes.iter().enumerate() {
-        if axis.kind == postpro_machine::model::AxisKind::Rotary {
-            j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
+        if axis.kind == postpro_machine::model::AxisKind::Rotary && Some(i) != except {
+            joints[i] += std::f64::consts::TAU * ((near[i] - joints[i]) / std::f64::consts::TAU).round();
         }
     }
-    Some(j)
+    joints
 }
 
 /// The solution for `pose` with the free axis at `near[free]`, the other rotary axes at the turn
 /// nearest `near`.
 fn holding(kin: &dyn Kinematics, pose: &Pose, free: usize, near: &Joints) -> Option<Joints> {
-    let mut j = kin.inverse_holding(pose, free, near[free])?;
-    for (i, axis) in kin.machine().axes.iter().enumerate() {
-        if axis.kind == postpro_machine::model::AxisKind::Rotary && i != free {
-            j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
-        }
-    }
+    let mut j = turned_near(kin, kin.inverse_holding(pose, free, near[free])?, near, Some(free));
     j[free] = near[free];
     Some(j)
 }
@@ -611,15 +610,9 @@ fn nearest_of(
     if let Some(free) = free_axis(sols, singular_cone) {
         return holding(kin, pose, free, near);
     }
-    let machine = kin.machine();
     sols.iter()
         .map(|s| {
-            let mut j = s.joints;
-            for (i, axis) in machine.axes.iter().enumerate() {
-                if axis.kind == postpro_machine::model::AxisKind::Rotary {
-                    j[i] += std::f64::consts::TAU * ((near[i] - j[i]) / std::f64::consts::TAU).round();
-                }
-            }
+            let j = turned_near(kin, s.joints, near, None);
             let d: f64 = j.as_slice().iter().zip(near.as_slice()).map(|(x, y)| (x - y).abs()).sum();
             (d, j)
         })
