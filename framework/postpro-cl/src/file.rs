@@ -192,7 +192,7 @@ impl ClFile {
             loop {
                 points.push(Checkpoint { text: w.base + at, file: 0, lines_before });
                 let Some(next) = line_start_after(text, at + STRIDE) else { break };
-                lines_before += line_breaks(&text[at..next]);
+                lines_before += line_breaks(text[at..next].as_bytes());
                 at = next;
             }
             text.len()
@@ -246,49 +246,65 @@ impl ClFile {
             std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(from.file)).map_err(io)?;
         }
         let (mut base, mut lines_before) = (from.text, from.lines_before);
-        let mut raw: Vec<u8> = Vec::with_capacity(BLOCK.min(size));
-        let mut carry = String::new();
+        // The text from `base` on: what the last window left, then what was read after it (in
+        // a Latin-1 file, decoded); whole lines up to `whole`. One buffer, handed to each window
+        // and taken back: the file's bytes are read into it, not copied through another.
+        let mut text: Vec<u8> = Vec::new();
+        let mut whole = 0;
+        let read = BLOCK.min(size);
+        let mut block = if self.latin1 { vec![0u8; read] } else { Vec::new() };
         let mut eof = false;
         let mut want = size;
-        let mut block = vec![0u8; BLOCK.min(size)];
         loop {
             // Whole lines up to the window's size (or to the end of the file).
-            while carry.len() < want && !eof {
-                let n = file.read(&mut block).map_err(io)?;
-                raw.extend_from_slice(&block[..n]);
-                eof = n == 0;
-                let cut = if eof { raw.len() } else { last_line_end(&raw) };
-                self.decode(&raw[..cut], &mut carry);
-                raw.drain(..cut);
+            while whole < want && !eof {
+                if self.latin1 {
+                    let n = file.read(&mut block).map_err(io)?;
+                    for &b in &block[..n] {
+                        text.extend_from_slice(char::from(b).encode_utf8(&mut [0; 4]).as_bytes());
+                    }
+                    eof = n == 0;
+                } else {
+                    text.reserve(read);
+                    let n = Read::take(&mut file, read as u64).read_to_end(&mut text).map_err(io)?;
+                    eof = n < read;
+                }
+                // The lines before the new bytes were whole already.
+                whole = if eof { text.len() } else { whole + last_line_end(&text[whole..]) };
             }
-            let last = eof && raw.is_empty();
-            if last && base + carry.len() != self.len {
+            let rest = text.split_off(whole);
+            let last = eof && rest.is_empty();
+            if last && base + text.len() != self.len {
                 return Err(changed());
             }
-            let window = Window { text: Arc::new(std::mem::take(&mut carry)), base, lines_before };
+            // Whole lines of a file that was UTF-8 when opened are: else it changed since.
+            let window_text = String::from_utf8(std::mem::take(&mut text)).map_err(|_| changed())?;
+            let window = Window { text: Arc::new(window_text), base, lines_before };
             let done = each(&window, last);
-            let text = window.text.as_str();
-            if last || done > text.len() {
+            if last || done > window.text.len() {
                 return Ok(());
             }
             if done == 0 {
                 // A record longer than the window: a larger one.
                 want = want.saturating_mul(2);
-                carry = text.to_string();
-                continue;
+            } else {
+                lines_before += line_breaks(&window.text.as_bytes()[..done]);
+                base += done;
             }
-            lines_before += line_breaks(&text[..done]);
-            base += done;
-            carry = text[done..].to_string();
-            want = size.max(carry.len() * 2);
-        }
-    }
-
-    /// Appends the text of `bytes` (whole lines) to `out`.
-    fn decode(&self, bytes: &[u8], out: &mut String) {
-        match std::str::from_utf8(bytes) {
-            Ok(text) if !self.latin1 => out.push_str(text),
-            _ => out.extend(bytes.iter().map(|&b| char::from(b))),
+            // What the window left, in its buffer unless the window was kept.
+            text = match Arc::try_unwrap(window.text) {
+                Ok(left) => {
+                    let mut left = left.into_bytes();
+                    left.drain(..done);
+                    left
+                }
+                Err(kept) => kept.as_bytes()[done..].to_vec(),
+            };
+            if done > 0 {
+                want = size.max(text.len() * 2);
+            }
+            whole = text.len();
+            text.extend_from_slice(&rest);
         }
     }
 }
@@ -392,8 +408,7 @@ fn last_line_end(raw: &[u8]) -> usize {
 }
 
 /// The line breaks in `text` (`\n`, `\r\n` and a lone `\r` each one).
-fn line_breaks(text: &str) -> usize {
-    let bytes = text.as_bytes();
+fn line_breaks(bytes: &[u8]) -> usize {
     let lone_cr = memchr::memchr_iter(b'\r', bytes).filter(|&k| bytes.get(k + 1) != Some(&b'\n')).count();
     memchr::memchr_iter(b'\n', bytes).count() + lone_cr
 }
@@ -408,6 +423,6 @@ mod tests {
         assert_eq!(last_line_end(b"ab\r\ncd\r"), 4);
         assert_eq!(last_line_end(b"ab\rcd"), 3);
         assert_eq!(last_line_end(b"abcd"), 0);
-        assert_eq!(line_breaks("a\r\nb\rc\nd"), 3);
+        assert_eq!(line_breaks(b"a\r\nb\rc\nd"), 3);
     }
 }
