@@ -19,11 +19,17 @@ fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Opti
     const POWERS: [u64; 10] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
     let decimals = decimals.min(9);
     let divisor = POWERS[decimals];
-    let scaled = (value.abs() * divisor as f64).round();
-    if !scaled.is_finite() || scaled >= 9.0e15 {
+    let scaled = value.abs() * divisor as f64;
+    if !(scaled < 9.0e15) {
+        return None; // and NaN
+    }
+    // Rounded half away from zero, as `f64::round`, without its library call: below 2⁵³ the
+    // truncation and the fraction left are exact.
+    let whole = scaled as u64;
+    let units = whole + u64::from(scaled - whole as f64 >= 0.5);
+    if units >= 9_000_000_000_000_000 {
         return None;
     }
-    let units = scaled as u64;
     // At most a sign, 16 digits, the point and 9 decimals.
     let mut length = 0;
     let mut put = |bytes: &[u8]| {

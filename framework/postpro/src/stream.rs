@@ -293,7 +293,13 @@ struct Predicting<'a> {
     blocks: Blocks,
     predictor: Predictor<'a>,
     marks: MarkFinder,
+    /// Blocks seen since what the prediction no longer needs was last forgotten.
+    unforgotten: usize,
 }
+
+/// Blocks seen between two forgettings of what the prediction no longer needs (a few hundred
+/// kilobytes held at most).
+const FORGET_EVERY: usize = 256;
 
 impl Predicting<'_> {
     fn take(&mut self, range: std::ops::Range<usize>) {
@@ -316,8 +322,14 @@ impl Predicting<'_> {
         self.reader.block(&mut self.blocks, self.machine, block);
         let done = self.predictor.advance(&self.blocks);
         self.take(done);
-        let from = self.predictor.needs_from(&self.blocks);
-        self.blocks.forget_before(from);
+        // What the prediction no longer needs is forgotten every so many blocks, not at each:
+        // its many windows are looked at once for all of them.
+        self.unforgotten += 1;
+        if self.unforgotten == FORGET_EVERY {
+            self.unforgotten = 0;
+            let from = self.predictor.needs_from(&self.blocks);
+            self.blocks.forget_before(from);
+        }
     }
 }
 
@@ -835,6 +847,7 @@ impl<'a> Passes<'a> {
                 true,
             ),
             marks: MarkFinder::new(marks.rules(prediction)),
+            unforgotten: 0,
         })
     }
 
