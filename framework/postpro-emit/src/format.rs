@@ -108,6 +108,32 @@ mod tests {
         assert_eq!(number(f64::NEG_INFINITY, 3, false), "-inf");
     }
 
+    /// The units of `value` at `decimals` as `f64::round` gives them (what `fixed` rounds
+    /// like, without the call).
+    fn rounded_units(value: f64, decimals: usize) -> Option<u64> {
+        let scaled = (value.abs() * 10f64.powi(decimals as i32)).round();
+        (scaled.is_finite() && scaled < 9.0e15).then_some(scaled as u64)
+    }
+
+    proptest::proptest! {
+        /// Any value, and the halves between two written values, round as `f64::round` does.
+        #[test]
+        fn numbers_round_half_away_from_zero(
+            units in 0u64..2_000_000_000_000,
+            half in proptest::bool::ANY,
+            jitter in -1e-3f64..1e-3,
+            decimals in 0usize..10,
+            negative in proptest::bool::ANY,
+        ) {
+            let step = 10f64.powi(-(decimals as i32));
+            let magnitude = (units as f64 + if half { 0.5 } else { jitter }) * step;
+            let value = if negative { -magnitude } else { magnitude };
+            let text = number(value, decimals, false);
+            let written: u64 = text.trim_start_matches('-').replace('.', "").parse().expect("digits");
+            proptest::prop_assert_eq!(Some(written), rounded_units(value, decimals), "{} at {}: {}", value, decimals, text);
+        }
+    }
+
     #[test]
     fn a_compact_string_gets_the_same_text() {
         for (value, decimals, plus) in [(12.3456, 3, false), (-0.0004, 3, true), (-8_999_999.5, 9, true)] {
