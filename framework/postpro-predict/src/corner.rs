@@ -22,7 +22,11 @@ pub fn interior_angle(incoming: &Vector3<f64>, outgoing: &Vector3<f64>) -> Optio
 /// The radius (mm) of the arc that rounds a corner of interior angle `alpha` (rad) within
 /// `tolerance` (mm): infinite on a straight line, 0 on a reversal.
 pub fn blend_radius(tolerance: f64, alpha: f64) -> f64 {
-    let s = (alpha / 2.0).sin();
+    radius_of_half_sine(tolerance, (alpha / 2.0).sin())
+}
+
+/// [`blend_radius`] from `s = sin(α/2)`.
+fn radius_of_half_sine(tolerance: f64, s: f64) -> f64 {
     if s >= 1.0 { f64::INFINITY } else { tolerance * s / (1.0 - s) }
 }
 
@@ -30,10 +34,13 @@ pub fn blend_radius(tolerance: f64, alpha: f64) -> f64 {
 /// `sqrt(R · amax · (1 − share))`, infinite when there is no corner (collinear blocks, or one
 /// without a direction), 0 on a reversal.
 pub fn corner_speed(incoming: &Vector3<f64>, outgoing: &Vector3<f64>, tolerance: f64, amax: f64, share: f64) -> f64 {
-    match interior_angle(incoming, outgoing) {
-        None => f64::INFINITY,
-        Some(alpha) => (blend_radius(tolerance, alpha) * amax * (1.0 - share)).sqrt(),
-    }
+    let (Some(a), Some(b)) = (incoming.try_normalize(0.0), outgoing.try_normalize(0.0)) else {
+        return f64::INFINITY;
+    };
+    // The interior angle α is π less the turn θ, so sin(α/2) = cos(θ/2) = √((1 + cos θ)/2): no
+    // trigonometry (a corner a block).
+    let half_sine = ((1.0 + a.dot(&b).clamp(-1.0, 1.0)) / 2.0).sqrt();
+    (radius_of_half_sine(tolerance, half_sine) * amax * (1.0 - share)).sqrt()
 }
 
 /// The acceleration the CNC rounds corners with: its tangential (path) acceleration, or the
@@ -117,6 +124,17 @@ mod tests {
         // left to the curvature, V = sqrt(0.02414 · 5000) = 10.99 mm/s (0.66 m/min).
         let v = corner_speed(&Vector3::x(), &Vector3::y(), 0.01, 10_000.0, 0.5);
         assert!((v - 10.987).abs() < 1e-3, "{v}");
+    }
+
+    #[test]
+    fn the_corner_speed_is_that_of_the_blend_radius_of_the_interior_angle() {
+        for degrees in [0.5_f64, 10.0, 45.0, 90.0, 135.0, 170.0, 179.5] {
+            let out = Vector3::new(degrees.to_radians().cos(), degrees.to_radians().sin(), 0.3);
+            let alpha = interior_angle(&Vector3::x(), &out).expect("both have a direction");
+            let expected = (blend_radius(0.01, alpha) * 10_000.0 * 0.5).sqrt();
+            let v = corner_speed(&Vector3::x(), &out, 0.01, 10_000.0, 0.5);
+            assert!((v - expected).abs() <= 1e-9 * expected, "{degrees}°: {v} against {expected}");
+        }
     }
 
     #[test]
