@@ -192,7 +192,7 @@ impl ClFile {
             loop {
                 points.push(Checkpoint { text: w.base + at, file: 0, lines_before });
                 let Some(next) = line_start_after(text, at + STRIDE) else { break };
-                lines_before += line_breaks(text[at..next].as_bytes());
+                lines_before += line_breaks(&text.as_bytes()[at..next]);
                 at = next;
             }
             text.len()

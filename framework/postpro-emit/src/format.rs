@@ -20,8 +20,8 @@ fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Opti
     let decimals = decimals.min(9);
     let divisor = POWERS[decimals];
     let scaled = value.abs() * divisor as f64;
-    if !(scaled < 9.0e15) {
-        return None; // and NaN
+    if scaled.is_nan() || scaled >= 9.0e15 {
+        return None;
     }
     // Rounded half away from zero, as `f64::round`, without its library call: below 2⁵³ the
     // truncation and the fraction left are exact.
