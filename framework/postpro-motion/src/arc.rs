@@ -89,14 +89,24 @@ pub(crate) fn geometry(
     })
 }
 
-/// True when the rotary axes of `a` and `b` are the same (within 1e-9 rad).
+/// True when the rotary axes of `a` and `b` stand at one angle: each within half a unit of the
+/// last decimal the program writes it with. CAM systems write tool axes to 7 decimals, and two of
+/// one 3+2 set-up may differ in the last (1e-7 rad): that is no re-orientation, no simultaneous
+/// motion, no end of a set-up. Written, the two stay within one unit (0.0001°): a turn that moves
+/// the tool tip by a micrometre, never a reason to retract.
 pub(crate) fn same_rotaries(kin: &dyn Kinematics, a: &Joints, b: &Joints) -> bool {
     kin.machine()
         .axes
         .iter()
         .enumerate()
         .filter(|(_, x)| x.kind == AxisKind::Rotary)
-        .all(|(i, _)| (a[i] - b[i]).abs() <= 1e-9)
+        .all(|(i, axis)| (a[i] - b[i]).abs() <= half_unit(axis))
+}
+
+/// Half a unit of the last decimal rotary axis `axis` is written with (rad; at least 1e-9): the
+/// angles it cannot tell apart.
+pub(crate) fn half_unit(axis: &postpro_machine::model::Axis) -> f64 {
+    (0.5 * 10f64.powi(-i32::from(axis.decimals))).to_radians().max(1e-9)
 }
 
 #[cfg(test)]

@@ -198,7 +198,13 @@ impl Builder<'_> {
         if (map.transpose() * map - nalgebra::Matrix3::identity()).norm() > 1e-9 || map.determinant() < 0.0 {
             return None;
         }
-        if (map - nalgebra::Matrix3::identity()).norm() <= 1e-12 {
+        // Turned by less than the rotaries can be written to (their noise): the plane's angles
+        // would be written as zero, and it is the work offset's frame.
+        let finest = (0..machine.axes.len())
+            .filter(|&i| is_rotary(machine, i))
+            .map(|i| crate::arc::half_unit(&machine.axes[i]))
+            .fold(f64::INFINITY, f64::min);
+        if (map - nalgebra::Matrix3::identity()).norm() <= finest {
             return None;
         }
         let mut shift = Joints::zeros(machine.axes.len());

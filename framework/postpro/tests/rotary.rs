@@ -478,3 +478,59 @@ fn a_feed_beyond_the_machines_range_is_clamped_and_said_once() {
     assert!(feeds.iter().all(|f| (1.0..=10000.0).contains(f)), "{feeds:?}");
     assert!(feeds.contains(&10000.0) && feeds.contains(&1.0), "{feeds:?}");
 }
+
+/// A CAM system writes tool axes to seven decimals, and two of one 3+2 set-up may differ in the
+/// last (1e-7 rad): no re-orientation. The hyperbolic paraboloid in 3+2 with such noise in every
+/// tool axis posts as with the exact axes, on the three built-in machines: the same program but
+/// for its name (no retract to the clearance between moves of one set-up, no working plane for a
+/// turn below what the rotaries are written to, the same predicted time), or, where a rotary
+/// brake is worked, at most one more unlock.
+#[test]
+fn tool_axes_that_differ_in_their_last_decimal_are_one_orientation() {
+    let dir = out_dir("axis_noise");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl/hypar-3plus2.cl");
+    let exact = std::fs::read_to_string(&example).expect("the example");
+    let mut noisy = String::new();
+    let mut changed = 0;
+    for (k, line) in exact.lines().enumerate() {
+        let values: Option<Vec<f64>> = line
+            .strip_prefix("GOTO/")
+            .map(|args| args.split(',').map(|v| v.trim().parse().expect("a number")).collect());
+        match values {
+            Some(v) if v.len() == 6 => {
+                // ±1e-7 on i and j by turns, renormalized, written to seven decimals as CAM does.
+                let nudge = [1e-7, -1e-7, 0.0][k % 3];
+                let (i, j, kk) = (v[3] + nudge, v[4] - nudge, v[5]);
+                let n = (i * i + j * j + kk * kk).sqrt();
+                let noisy_line =
+                    format!("GOTO/{:.4},{:.4},{:.4},{:.7},{:.7},{:.7}", v[0], v[1], v[2], i / n, j / n, kk / n);
+                changed += usize::from(noisy_line != line);
+                writeln!(noisy, "{noisy_line}").expect("a string");
+            }
+            _ => writeln!(noisy, "{line}").expect("a string"),
+        }
+    }
+    assert!(changed > 100, "the noise reaches the tool axes: {changed} lines");
+    std::fs::write(dir.join("exact.cl"), &exact).expect("the exact file");
+    std::fs::write(dir.join("noisy.cl"), &noisy).expect("the noisy file");
+    for machine in ["mikron", "maho600e", "haas-umc750"] {
+        // Each program's lines but those that name its file (the header's).
+        let [exact, noisy] = ["exact", "noisy"].map(|name| {
+            let o = postpro(&["--machine", machine, &format!("{name}.cl"), "-o", &format!("{name}.nc")], &dir);
+            assert_eq!(o.status.code(), Some(0), "{machine} {name}: {}", stderr(&o));
+            let text = std::fs::read_to_string(dir.join(format!("{name}.nc"))).expect("the program");
+            text.lines().filter(|l| !l.to_lowercase().contains(name)).map(str::to_string).collect::<Vec<_>>()
+        });
+        // The noisy program's lines the exact one has not (each line of it matched once).
+        let extra: Vec<&String> = {
+            let mut left: Vec<&String> = exact.iter().collect();
+            noisy.iter().filter(|l| left.iter().position(|e| e == l).map(|p| left.remove(p)).is_none()).collect()
+        };
+        let unlocks = extra.iter().filter(|l| l.contains("UNLOCK")).count();
+        assert!(
+            extra.len() == unlocks && unlocks <= 1 && noisy.len() == exact.len() + unlocks,
+            "{machine}: the noisy axes' program differs by {:?}",
+            extra
+        );
+    }
+}
