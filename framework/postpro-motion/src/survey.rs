@@ -156,8 +156,11 @@ impl<'a> Surveyor<'a> {
         match self.stretch {
             Some((_, joints)) if crate::arc::same_rotaries(self.kin, &joints, &step.joints) => {}
             Some((first, _)) => {
-                // The stretch ends here: by a rapid, a set-up; at feed, simultaneous motion.
+                // The stretch ends here: by a rapid, a set-up; at feed, simultaneous motion (also
+                // where each feed move turned the rotaries by less than `same_rotaries` tells
+                // apart, and they drifted away from the stretch's start).
                 self.survey.set_ups.record(first, rapid);
+                self.survey.simultaneous |= !rapid;
                 self.stretch = Some((k, step.joints));
             }
             None => self.stretch = Some((k, step.joints)),

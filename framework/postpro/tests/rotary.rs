@@ -534,3 +534,44 @@ fn tool_axes_that_differ_in_their_last_decimal_are_one_orientation() {
         );
     }
 }
+
+/// The other side of the same tolerance: a tool axis that turns a little at every feed move, each
+/// turn below what the rotaries are written to but adding up (0.03° over the cut), is simultaneous
+/// motion. A program with such a cut after a true 3+2 set-up is a 5-axis program: its work offset
+/// on the rotary axes' intersection (the frame simultaneous motion is computed in), no working
+/// plane, and the rotary words change along the cut. It fails where the tolerance is taken
+/// between consecutive moves only (the program then was the part zero's, with a G68.2 plane).
+#[test]
+fn a_tool_axis_that_drifts_below_the_resolution_at_each_move_is_simultaneous_motion() {
+    let dir = out_dir("axis_drift");
+    let mut cl = String::from("UNITS/MM\nLOADTL/1\nSPINDL/RPM,6000,CLW\nCOOLNT/FLOOD\nMULTAX\nRAPID\n");
+    let axis = |i: f64| format!("{i:.7},0.0000000,{:.7}", (1.0 - i * i).sqrt());
+    // A 3+2 set-up: the tool tilted 30°, standing.
+    writeln!(cl, "GOTO/0.0000,10.0000,20.0000,{}\nFEDRAT/MMPM,1000", axis(0.5)).expect("a string");
+    for x in 0..20 {
+        writeln!(cl, "GOTO/{x}.0000,10.0000,0.0000,{}", axis(0.5)).expect("a string");
+    }
+    writeln!(cl, "RAPID\nGOTO/19.0000,10.0000,20.0000,{}", axis(0.5)).expect("a string");
+    // The drifting cut.
+    let drift = |k: usize| axis(0.3 + 2e-7 * k as f64);
+    writeln!(cl, "RAPID\nGOTO/0.0000,0.0000,20.0000,{}\nFEDRAT/MMPM,1000", drift(0)).expect("a string");
+    for k in 0..3000 {
+        writeln!(cl, "GOTO/{:.4},0.0000,0.0000,{}", 0.01 * k as f64, drift(k)).expect("a string");
+    }
+    cl.push_str("RAPID\nGOTO/29.9900,0.0000,20.0000\nFINI\n");
+    std::fs::write(dir.join("drift.cl"), &cl).expect("the CL file");
+    for (machine, rotary) in [("maho600e", 'B'), ("mikron", 'A')] {
+        let o = postpro(&["--machine", machine, "drift.cl", "-o", "drift.nc", "--no-predict"], &dir);
+        assert_eq!(o.status.code(), Some(0), "{machine}: {}", stderr(&o));
+        let program = std::fs::read_to_string(dir.join("drift.nc")).expect("the program");
+        let offset = program.lines().find(|l| l.contains("work offset")).unwrap_or_default();
+        assert!(offset.contains("intersection"), "{machine}: {offset}");
+        assert!(!program.contains("G68.2") && !program.contains("CYCLE800"), "{machine}: a working plane");
+        let rotary_words: std::collections::BTreeSet<&str> = program
+            .lines()
+            .filter(|l| l.starts_with("G1") || l.contains(" G1 "))
+            .flat_map(|l| l.split_whitespace().filter(|w| w.starts_with(rotary)))
+            .collect();
+        assert!(rotary_words.len() >= 10, "{machine}: the rotary words of the cuts: {rotary_words:?}");
+    }
+}
