@@ -59,6 +59,11 @@ fn record<K>(changes: &mut Vec<(K, bool)>, from: K, indexed: bool) {
     }
 }
 
+/// How far two tool axes of one stretch may differ, for the guess: the noise of a CAM system's
+/// seven decimals (a unit of the last, rounded, in each component), below the half unit of a
+/// rotary axis written to four decimals (`crate::arc::same_rotaries`, which the survey applies).
+const AXIS_NOISE: f64 = 5e-7;
+
 /// The 3+2 set-ups guessed before the steps exist, from the CL file's tool axes (the survey pass
 /// of a streamed job reads them): a stretch of one tool axis that a rapid (or the end) ends
 /// stands, as [`SetUps`] says of the rotary axes' values; keyed by the CL statements' offsets.
@@ -78,7 +83,7 @@ impl AxisStretches {
     /// traverse or not.
     pub fn target(&mut self, offset: u32, axis: &Vector3<f64>, rapid: bool) {
         match self.stretch {
-            Some((_, standing)) if standing == *axis => {}
+            Some((_, standing)) if (standing - axis).norm() <= AXIS_NOISE => {}
             Some((first, _)) => {
                 // The stretch ends here: by a rapid, a set-up; at feed, simultaneous motion.
                 record(&mut self.changes, first, rapid);
@@ -206,6 +211,23 @@ mod tests {
         assert_eq!(answers, [true, true, false, false, true, true, true]);
         // Surveyed set-ups answer by step, and guess nothing.
         assert_eq!(SetUps::default().guess_at(0), None);
+    }
+
+    #[test]
+    fn the_guess_takes_a_cam_systems_rounding_of_a_tool_axis_for_one_axis() {
+        let z = Vector3::z();
+        let noisy = Vector3::new(1e-7, -1e-7, 1.0).normalize();
+        let turned = Vector3::new(1e-5, 0.0, 1.0).normalize();
+        let guess_of = |second: Vector3<f64>| {
+            let mut guess = AxisStretches::default();
+            guess.target(0, &z, true);
+            guess.target(10, &z, false);
+            guess.target(20, &second, false);
+            guess.target(30, &z, true);
+            SetUps::guessed(guess.finish())
+        };
+        assert_eq!(guess_of(noisy).guess_at(20), Some(true), "rounding noise: one set-up");
+        assert_eq!(guess_of(turned).guess_at(10), Some(false), "a turn at feed: simultaneous");
     }
 
     #[test]
