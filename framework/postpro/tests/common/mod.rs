@@ -58,11 +58,11 @@ pub(crate) fn number(field: &str) -> f64 {
 
 /// A CL file of two 3+2 set-ups: along Z, then tilted 30° about X with three corners at feed (a
 /// slowdown worth a comment). With `wiggle`, the tool axis of a feed move in the first turns by
-/// 1e-10: a set-up still for the rotary axes (which stand within 1e-9), simultaneous motion for
-/// the tool axes, which are what the main job guesses the set-ups from: a guess the steps prove
-/// wrong.
+/// 6e-7: a set-up still for the rotary axes (which stand within half a unit of their last
+/// decimal, 8.7e-7 rad and more), simultaneous motion for the tool axes, which are what the main
+/// job guesses the set-ups from (within 5e-7): a guess the steps prove wrong.
 pub(crate) fn two_set_ups(wiggle: bool) -> String {
-    let i = if wiggle { "0.0000000001" } else { "0.0000000" };
+    let i = if wiggle { "0.0000006" } else { "0.0000000" };
     [
         "LOAD/TOOL,1\nSPINDL/RPM,8000,CLW\nCOOLNT/ON\nRAPID\nGOTO/0.0000,0.0000,50.0000,0.0000000,0.0000000,1.0000000\n",
         "FEDRAT/MMPM,1000.0000\nGOTO/0.0000,0.0000,10.0000,0.0000000,0.0000000,1.0000000\n",
