@@ -227,12 +227,28 @@ impl Builder<'_> {
             if machine.axes[i].clamp.is_none() || self.locked[i] == Some(false) {
                 continue;
             }
-            let turns = self.current.is_none_or(|c| (c[i] - to[i]).abs() > 1e-9) || self.locked[i].is_none();
+            let turns = self.current.is_none_or(|c| self.turns_as_written(i, &c, to)) || self.locked[i].is_none();
             if turns {
                 self.locked[i] = Some(false);
                 self.push(span, BlockKind::Clamp { axis: i, lock: false });
             }
         }
+    }
+
+    /// True when the machine turns rotary axis `i` from `from` to `to` as the program writes them:
+    /// its written value (to its last decimal) changes. In TCP mode the controller may find the
+    /// angles from the tool vector itself: there, any change turns it.
+    fn turns_as_written(&self, i: usize, from: &Joints, to: &Joints) -> bool {
+        if (from[i] - to[i]).abs() <= 1e-9 {
+            return false;
+        }
+        if self.options.mode == Mode::Tcp {
+            return true;
+        }
+        // As the emitter writes it: degrees in the job's frame, rounded half away from zero.
+        let scale = 10f64.powi(i32::from(self.machine.axes[i].decimals));
+        let written = |j: &Joints| (self.job.frame.apply(j)[i].to_degrees() * scale).round();
+        written(from) != written(to)
     }
 
     /// Locks the brake of every clamped rotary axis not locked.
