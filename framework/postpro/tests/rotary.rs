@@ -479,6 +479,31 @@ fn a_feed_beyond_the_machines_range_is_clamped_and_said_once() {
     assert!(feeds.contains(&10000.0) && feeds.contains(&1.0), "{feeds:?}");
 }
 
+/// The start of the CL files the tests of small rotary turns write: a tool, the spindle, the
+/// coolant, five-axis moves.
+const START: &str = "UNITS/MM\nLOADTL/1\nSPINDL/RPM,6000,CLW\nCOOLNT/FLOOD\nMULTAX\n";
+
+/// A tool axis in the XZ plane with `i` its x component, to seven decimals as CAM systems write.
+fn axis_xz(i: f64) -> String {
+    format!("{i:.7},0.0000000,{:.7}", (1.0 - i * i).sqrt())
+}
+
+/// Appends a cut of 3000 moves 0.01 mm apart along X whose tool axis turns by 2e-7 a move (0.03°
+/// over the cut): from above its start, at feed, to above its end.
+fn drifting_cut(cl: &mut String) {
+    let drift = |k: usize| axis_xz(0.3 + 2e-7 * k as f64);
+    writeln!(cl, "RAPID\nGOTO/0.0000,0.0000,20.0000,{}\nFEDRAT/MMPM,1000", drift(0)).expect("a string");
+    for k in 0..3000 {
+        writeln!(cl, "GOTO/{:.4},0.0000,0.0000,{}", 0.01 * k as f64, drift(k)).expect("a string");
+    }
+    cl.push_str("RAPID\nGOTO/29.9900,0.0000,20.0000\n");
+}
+
+/// The bundled 3+2 example (the hyperbolic paraboloid).
+fn example_3plus2() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl/hypar-3plus2.cl")
+}
+
 /// A CAM system writes tool axes to seven decimals, and two of one 3+2 set-up may differ in the
 /// last (1e-7 rad): no re-orientation. The hyperbolic paraboloid in 3+2 with such noise in every
 /// tool axis posts as with the exact axes, on the three built-in machines: the same program but
@@ -488,8 +513,7 @@ fn a_feed_beyond_the_machines_range_is_clamped_and_said_once() {
 #[test]
 fn tool_axes_that_differ_in_their_last_decimal_are_one_orientation() {
     let dir = out_dir("axis_noise");
-    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl/hypar-3plus2.cl");
-    let exact = std::fs::read_to_string(&example).expect("the example");
+    let exact = std::fs::read_to_string(example_3plus2()).expect("the example");
     let mut noisy = String::new();
     let mut changed = 0;
     for (k, line) in exact.lines().enumerate() {
@@ -542,21 +566,15 @@ fn tool_axes_that_differ_in_their_last_decimal_are_one_orientation() {
 #[test]
 fn a_tool_axis_that_drifts_below_the_resolution_at_each_move_is_simultaneous_motion() {
     let dir = out_dir("axis_drift");
-    let mut cl = String::from("UNITS/MM\nLOADTL/1\nSPINDL/RPM,6000,CLW\nCOOLNT/FLOOD\nMULTAX\nRAPID\n");
-    let axis = |i: f64| format!("{i:.7},0.0000000,{:.7}", (1.0 - i * i).sqrt());
+    let mut cl = String::from(START);
     // A 3+2 set-up: the tool tilted 30°, standing.
-    writeln!(cl, "GOTO/0.0000,10.0000,20.0000,{}\nFEDRAT/MMPM,1000", axis(0.5)).expect("a string");
+    writeln!(cl, "RAPID\nGOTO/0.0000,10.0000,20.0000,{}\nFEDRAT/MMPM,1000", axis_xz(0.5)).expect("a string");
     for x in 0..20 {
-        writeln!(cl, "GOTO/{x}.0000,10.0000,0.0000,{}", axis(0.5)).expect("a string");
+        writeln!(cl, "GOTO/{x}.0000,10.0000,0.0000,{}", axis_xz(0.5)).expect("a string");
     }
-    writeln!(cl, "RAPID\nGOTO/19.0000,10.0000,20.0000,{}", axis(0.5)).expect("a string");
-    // The drifting cut.
-    let drift = |k: usize| axis(0.3 + 2e-7 * k as f64);
-    writeln!(cl, "RAPID\nGOTO/0.0000,0.0000,20.0000,{}\nFEDRAT/MMPM,1000", drift(0)).expect("a string");
-    for k in 0..3000 {
-        writeln!(cl, "GOTO/{:.4},0.0000,0.0000,{}", 0.01 * k as f64, drift(k)).expect("a string");
-    }
-    cl.push_str("RAPID\nGOTO/29.9900,0.0000,20.0000\nFINI\n");
+    writeln!(cl, "RAPID\nGOTO/19.0000,10.0000,20.0000,{}", axis_xz(0.5)).expect("a string");
+    drifting_cut(&mut cl);
+    cl.push_str("FINI\n");
     std::fs::write(dir.join("drift.cl"), &cl).expect("the CL file");
     for (machine, rotary) in [("maho600e", 'B'), ("mikron", 'A')] {
         let o = postpro(&["--machine", machine, "drift.cl", "-o", "drift.nc", "--no-predict"], &dir);
@@ -582,27 +600,19 @@ fn a_tool_axis_that_drifts_below_the_resolution_at_each_move_is_simultaneous_mot
 #[test]
 fn a_locked_rotary_is_never_written_to_another_value() {
     let dir = out_dir("brakes");
-    let drift = |k: usize| {
-        let i = 0.3 + 2e-7 * k as f64;
-        format!("{i:.7},0.0000000,{:.7}", (1.0 - i * i).sqrt())
-    };
-    let mut cl = String::from("UNITS/MM\nLOADTL/1\nSPINDL/RPM,6000,CLW\nCOOLNT/FLOOD\nMULTAX\nRAPID\n");
-    writeln!(cl, "GOTO/0.0000,0.0000,20.0000,{}\nFEDRAT/MMPM,1000", drift(0)).expect("a string");
-    for k in 0..3000 {
-        writeln!(cl, "GOTO/{:.4},0.0000,0.0000,{}", 0.01 * k as f64, drift(k)).expect("a string");
-    }
-    cl.push_str("RAPID\nGOTO/29.9900,0.0000,20.0000\nFINI\n");
+    let mut cl = String::from(START);
+    drifting_cut(&mut cl);
+    cl.push_str("FINI\n");
     std::fs::write(dir.join("drift.cl"), &cl).expect("the CL file");
-    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl/hypar-3plus2.cl");
-    std::fs::copy(&example, dir.join("exact.cl")).expect("the example");
+    std::fs::copy(example_3plus2(), dir.join("exact.cl")).expect("the example");
     // A set-up at B 30.0004999° (written B30.000, the brake locked) whose last moves turn 2e-7° to
     // 30.0005001°: one set-up, but written B30.001 (the brake released first).
     let tilted = |degrees: f64| {
         let (s, c) = degrees.to_radians().sin_cos();
         format!("{s:.12},0.000000000000,{c:.12}")
     };
-    let mut cl = String::from("UNITS/MM\nLOADTL/1\nSPINDL/RPM,6000,CLW\nCOOLNT/FLOOD\nMULTAX\nRAPID\n");
-    writeln!(cl, "GOTO/0.0000,0.0000,20.0000,{}\nFEDRAT/MMPM,1000", tilted(30.0004999)).expect("a string");
+    let mut cl = String::from(START);
+    writeln!(cl, "RAPID\nGOTO/0.0000,0.0000,20.0000,{}\nFEDRAT/MMPM,1000", tilted(30.0004999)).expect("a string");
     for x in 0..7 {
         let degrees = if x < 5 { 30.0004999 } else { 30.0005001 };
         writeln!(cl, "GOTO/{x}.0000,0.0000,0.0000,{}", tilted(degrees)).expect("a string");
