@@ -23,12 +23,26 @@ use crate::profile::speed_change;
 use crate::window::Window;
 
 /// Counters of the work done, kept in the unit tests only: linearity is tested by counting
-/// work, never by timing.
-#[cfg(test)]
+/// work, never by timing. And a switch for the unit tests to compare the scan ahead by runs of
+/// junctions with the scan of each junction.
 pub(crate) mod work {
+    #[cfg(test)]
     use std::cell::Cell;
 
+    /// True when the scan ahead looks at each junction, not at runs of them: set by a unit test
+    /// only ([`ONE_BY_ONE`]); false outside the unit tests.
+    #[inline]
+    pub(crate) fn one_by_one() -> bool {
+        #[cfg(test)]
+        return ONE_BY_ONE.with(Cell::get);
+        #[cfg(not(test))]
+        false
+    }
+
+    #[cfg(test)]
     thread_local! {
+        /// The scan ahead looks at each junction ([`one_by_one`]).
+        pub(crate) static ONE_BY_ONE: Cell<bool> = const { Cell::new(false) };
         /// Steps chosen (a cruise taken in one go counts once).
         pub(crate) static STEPS: Cell<u64> = const { Cell::new(0) };
         /// Junctions examined while choosing them.
@@ -38,6 +52,7 @@ pub(crate) mod work {
     }
 
     /// The counters' values, reset.
+    #[cfg(test)]
     pub(crate) fn take() -> [u64; 3] {
         [STEPS.with(|c| c.replace(0)), JUNCTIONS.with(|c| c.replace(0)), SEGMENTS.with(|c| c.replace(0))]
     }
@@ -353,6 +368,12 @@ pub struct Stepper {
     ends: Window<f64>,
     /// Each known junction as the scan ahead reads it.
     known: Window<Ahead>,
+    /// The known junctions by runs of each length of [`RUNS`], summed up for the scan to pass
+    /// over at once (`runs[l][g]` holds junctions `g·n … g·n + n − 1`, `n = RUNS[l]`, once all
+    /// are known).
+    runs: [Window<Run>; RUNS.len()],
+    /// The runs being summed up.
+    run: [Run; RUNS.len()],
     h: f64,
     t: f64,
     u: f64,
@@ -388,6 +409,8 @@ impl Stepper {
         Stepper {
             ends: Window::default(),
             known: Window::default(),
+            runs: Default::default(),
+            run: [Run::EMPTY; RUNS.len()],
             h,
             t: 0.0,
             u: 0.0,
@@ -423,6 +446,9 @@ impl Stepper {
     pub fn forget_before(&mut self, i: usize) {
         self.ends.forget_before(i);
         self.known.forget_before(i);
+        for (runs, n) in self.runs.iter_mut().zip(RUNS) {
+            runs.forget_before(i / n);
+        }
     }
 
     /// Takes in the pieces and junctions added to `track` since the last call.
@@ -436,7 +462,14 @@ impl Stepper {
             let i = self.known.end();
             let (cap, why) = track.junction_cap(i);
             let piece = &track.pieces[i];
-            self.known.push(Ahead { at: self.ends[i], cap, why, acceleration: piece.acceleration, jerk: piece.jerk });
+            let ahead = Ahead { at: self.ends[i], cap, why, acceleration: piece.acceleration, jerk: piece.jerk };
+            self.known.push(ahead);
+            for ((run, runs), n) in self.run.iter_mut().zip(&mut self.runs).zip(RUNS) {
+                run.add(&ahead, i.is_multiple_of(n));
+                if i % n == n - 1 {
+                    runs.push(*run);
+                }
+            }
         }
     }
 
@@ -782,7 +815,7 @@ impl Stepper {
         let peak_of = |v1: f64, a1: f64, j_path: f64| v1 + a1.max(0.0).powi(2) / (2.0 * j_path);
         let mut peak = peak_of(v1, a1, j_path);
         let mut m = self.k;
-        loop {
+        'scan: loop {
             tally!(JUNCTIONS);
             if last.is_some_and(|last| m > last) {
                 break;
@@ -793,6 +826,42 @@ impl Stepper {
                 // reach it has now (the reach only grows).
                 return self.wait(Need::Beyond { next: m, at: u1 + 1.25 * reach, last });
             };
+            // A whole run at once, where each of its junctions would be passed over: no stop,
+            // not the window's end, no tighter limits, within the reach, and no cap the speed
+            // reaches or else every such cap surely reached in time.
+            // The longest run that starts here and can be passed over.
+            for (runs, n) in self.runs.iter().zip(RUNS) {
+                if m.is_multiple_of(n)
+                    && !work::one_by_one()
+                    && let Some(run) = runs.get(m / n)
+                    && last.is_none_or(|last| m + n <= last)
+                    && run.cap > 0.0
+                    && run.last_at - u1 <= 1.25 * reach
+                {
+                    // The limits along the path once past the run (a junction that tightens them
+                    // raises the peak for those after it: the test takes the run's end, the
+                    // worst).
+                    let (a_run, j_run) = (a_path.min(run.acceleration), j_path.min(run.jerk));
+                    let tightens = a_run < a_path || j_run < j_path;
+                    let peak_run = if tightens { peak_of(v1, a1, j_run) } else { peak };
+                    // No cap the speed reaches, or every such cap reached in time (and, where the
+                    // run tightens the limits, one cap under the peak from the start: whether a
+                    // junction could bind must not depend on where in the run they tighten).
+                    let passed = run.cap >= peak_run
+                        || ((!tightens || run.cap < peak)
+                            && surely_reached(run.first_at - u1, v1, a1, run.cap, a_run, j_run, p.jerk));
+                    if passed {
+                        could_bind |= run.cap < peak_run;
+                        if tightens {
+                            (a_path, j_path) = (a_run, j_run);
+                            stale = Some((v1, a1, a_path, j_path));
+                            peak = peak_run;
+                        }
+                        m += n;
+                        continue 'scan;
+                    }
+                }
+            }
             if m > self.k && (junction.acceleration < a_path || junction.jerk < j_path) {
                 a_path = a_path.min(junction.acceleration);
                 j_path = j_path.min(junction.jerk);
@@ -842,6 +911,7 @@ impl Stepper {
             };
             let slack = |jj: f64| slack_of(advance(u, v, a, jj, h));
             if !settled
+                && !surely_reached(at - u1, v1, a1, cap, a_path, j_path, p.jerk)
                 && let at_j = slack_of((u1, v1, a1))
                 && at_j < 0.0
             {
@@ -884,6 +954,37 @@ enum Need {
     /// The scan of the junctions ahead, out of known ones at junction `next`: a stop, junction
     /// `last` (the window's end), or a junction beyond parameter `at`.
     Beyond { next: usize, at: f64, last: Option<usize> },
+}
+
+/// The lengths of the runs of junctions the scan ahead may pass over at once, longest first.
+const RUNS: [usize; 2] = [16, 4];
+
+/// What the scan ahead needs of a run of junctions to pass over it at once: the lowest of their
+/// caps and of their pieces' limits, and where the run starts and ends.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    first_at: f64,
+    last_at: f64,
+    cap: f64,
+    acceleration: f64,
+    jerk: f64,
+}
+
+impl Run {
+    /// Before any junction.
+    const EMPTY: Run =
+        Run { first_at: 0.0, last_at: 0.0, cap: f64::INFINITY, acceleration: f64::INFINITY, jerk: f64::INFINITY };
+
+    /// Takes in `junction`, the first of a new run when `first`.
+    fn add(&mut self, junction: &Ahead, first: bool) {
+        if first {
+            *self = Run { first_at: junction.at, ..Run::EMPTY };
+        }
+        self.last_at = junction.at;
+        self.cap = self.cap.min(junction.cap);
+        self.acceleration = self.acceleration.min(junction.acceleration);
+        self.jerk = self.jerk.min(junction.jerk);
+    }
 }
 
 /// A known junction as the scan of the junctions ahead reads it ([`Stepper::choose`]): where it
@@ -1044,6 +1145,27 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
     }
 }
 
+/// True only where [`reach_distance`] (same arguments) is at most `room`: a test without a root,
+/// so that the scan ahead (where most junctions are far from binding) rarely computes the reach
+/// itself. The reach is bounded by the top speed of the motion it measures, `v + a²/2J` (what
+/// ending a positive acceleration reaches; the speed the braking curve through a deceleration
+/// started from), times its duration: ending `|a|` (at most `|a|/J`), then a speed change from
+/// the top speed to `w`, whose duration ([`speed_change`]) is inverted into the largest drop of
+/// speed the time left allows.
+fn surely_reached(room: f64, v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow: f64) -> bool {
+    let jr = jmax.min(jnow);
+    let top = v + a * a / (2.0 * jr);
+    // The time the room leaves for the speed change, at the top speed throughout.
+    let left = room * (1.0 - 1e-9) / top - a.abs() / jr;
+    if !(top > 0.0 && left > 0.0) {
+        return false;
+    }
+    // The drop of speed a jerk-limited change covers in `left`: A(t − A/J) once it reaches the
+    // acceleration (t ≥ 2A/J), J t²/4 before.
+    let drop = if left >= 2.0 * amax / jmax { amax * (left - amax / jmax) } else { jmax * left * left / 4.0 };
+    (top - w) * (1.0 + 1e-9) < drop * (1.0 - 1e-9)
+}
+
 /// The time within `(0, h]` at which the parameter reaches `target`: Newton on the cubic,
 /// kept inside a shrinking bracket (bisection where Newton would leave it).
 fn time_to(u: f64, v: f64, a: f64, j: f64, target: f64, h: f64) -> f64 {
@@ -1165,6 +1287,117 @@ mod tests {
                 let d = reach_distance(s.v, s.a, 0.0, amax, jmax, jmax);
                 assert!((d - (1000.0 - s.s)).abs() < 1e-6, "at {t}: {d} vs {}", 1000.0 - s.s);
             }
+        }
+    }
+
+    /// Pieces as a spline's: short, their limits each different (their speed caps in every
+    /// other stretch of 300, else a few), a corner or a stop now and then (a fixed
+    /// pseudo-random sequence).
+    fn uneven_track(n: usize, window: usize) -> Track {
+        let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut pieces = Vec::with_capacity(n);
+        let mut junctions = Vec::with_capacity(n);
+        for i in 0..n {
+            // Stretches where the pieces have the same speed cap but a few a hair under it (the
+            // motion cruises, then eases a little), and stretches where each has its own.
+            let speed = match next() {
+                _ if (i / 300) % 2 == 1 => 50.0 * (0.97 + 0.03 * next()),
+                x if x < 0.003 => 49.5 + 0.5 * next(),
+                _ => 50.0,
+            };
+            let length = if (i / 300) % 2 == 1 { 0.01 + 0.04 * next() } else { 0.05 + 0.1 * next() };
+            let mut p = piece(length, speed, 0.0, 0.0);
+            p.acceleration = 200.0 + 2300.0 * next();
+            p.jerk = 1000.0 + 4000.0 * next();
+            pieces.push(p);
+            let cap = match next() {
+                x if x < 0.0005 || i + 1 == n => 0.0,
+                x if x < 0.003 => 20.0 + 25.0 * next(),
+                _ => f64::INFINITY,
+            };
+            let limit = if cap == 0.0 { Limit::Stop } else { Limit::Corner };
+            junctions.push(Junction { cap, limit, dwell: 0.0 });
+        }
+        Track::new(pieces, junctions, window, 0.0)
+    }
+
+    /// Every sample and crossing, as they come.
+    #[derive(Default, PartialEq, Debug)]
+    struct Everything(Vec<Sample>, Vec<(usize, f64, f64, Limit)>);
+
+    impl Observer for Everything {
+        fn sample(&mut self, sample: &Sample) {
+            self.0.push(*sample);
+        }
+        fn crossing(&mut self, piece: usize, t: f64, v: f64, limit: Limit) {
+            self.1.push((piece, t, v, limit));
+        }
+        fn every_period(&self) -> bool {
+            false
+        }
+    }
+
+    #[test]
+    fn passing_over_runs_of_junctions_changes_no_step_and_saves_most_of_the_scan() {
+        // The runs are a shortcut of the scan ahead: the motion must be the one the scan of each
+        // junction chooses, to the last bit, with or without a look-ahead window.
+        // A period short enough for the motion to cruise over a piece.
+        const H: f64 = 0.0002;
+        for window in [usize::MAX, 200] {
+            let track = uneven_track(6000, window);
+            let mut by_runs = Everything::default();
+            work::take();
+            let time = run(&track, H, &mut by_runs);
+            let [_, scanned_by_runs, _] = work::take();
+            work::ONE_BY_ONE.with(|c| c.set(true));
+            let mut one_by_one = Everything::default();
+            let time_one_by_one = run(&track, H, &mut one_by_one);
+            work::ONE_BY_ONE.with(|c| c.set(false));
+            let [_, scanned_one_by_one, _] = work::take();
+            assert_eq!(time, time_one_by_one);
+            assert!(by_runs == one_by_one, "window {window}: the motions differ");
+            assert!(
+                scanned_by_runs * 3 < scanned_one_by_one,
+                "window {window}: {scanned_by_runs} junctions and runs examined, {scanned_one_by_one} one by one"
+            );
+        }
+    }
+
+    #[test]
+    fn a_cap_far_ahead_is_surely_reached_and_a_near_one_is_not_taken_for_it() {
+        // Cruising at 50 towards caps a little lower: the reach itself is a fraction of a
+        // millimetre; the test is conservative, but not by more than half of it.
+        let (amax, jmax) = (2500.0, 5000.0);
+        for w in [40.0, 45.0, 49.0, 49.9] {
+            let reach = reach_distance(50.0, 0.0, w, amax, jmax, jmax);
+            assert!(surely_reached(1.5 * reach, 50.0, 0.0, w, amax, jmax, jmax), "cap {w}: reach {reach}");
+            assert!(!surely_reached(0.99 * reach, 50.0, 0.0, w, amax, jmax, jmax), "cap {w}: reach {reach}");
+        }
+    }
+
+    proptest::proptest! {
+        /// The test without a root never says a cap is reached in time with less room than the
+        /// reach (it grows with the room, so this is every room it could be wrong about).
+        #[test]
+        fn surely_reached_is_never_wrong(
+            v in 0.0..2000.0_f64,
+            a in proptest::prop_oneof![proptest::strategy::Just(0.0), -5000.0..5000.0_f64],
+            lower in proptest::prop_oneof![0.0..1.0_f64, 0.99..1.0_f64],
+            amax in 1.0..10_000.0_f64,
+            jmax in 1.0..1e6_f64,
+            jnow in 1.0..1e6_f64,
+            short in proptest::prop_oneof![0.0..0.999_999_f64, 0.99..0.999_999_f64],
+        ) {
+            // A cap under the speed: one above it needs no room.
+            let w = v * lower;
+            let reach = reach_distance(v, a, w, amax, jmax, jnow);
+            proptest::prop_assert!(!surely_reached(reach * short, v, a, w, amax, jmax, jnow), "reach {}", reach);
         }
     }
 
