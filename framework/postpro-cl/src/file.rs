@@ -1,6 +1,7 @@
-//! A CL file read in windows, never held whole: what the main job reads (three times) with memory
-//! that does not grow with the file. Each pass over it (the pre-scan, the reading) asks for its
-//! windows in order; a window ends at a line end, and what a pass has not finished of it (a
+//! A CL file read in windows, never held whole: what the main job reads with memory that does not
+//! grow with the file. Opening it reads it once (its encoding and length, and for a UTF-8 file the
+//! reader's pre-scan); each pass of a reading (the pre-scan of a Latin-1 file, the reading) asks
+//! for its windows in order; a window ends at a line end, and what a pass has not finished of it (a
 //! record that runs past its end) starts the next. The text is that of [`Source::from_bytes`]:
 //! UTF-8 if the whole file is, else Latin-1, so spans, lines and columns are the same as a
 //! [`Source`]'s of the same file.
@@ -10,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 use std::time::SystemTime;
 
+use crate::read::prescan::{Prescan, Prescanner};
 use crate::read::{ItemSink, ReadOptions, Window, read_windows};
 use crate::span::{LineCol, Locate, Source};
 use crate::{Diagnostic, Error, ProgramInfo};
@@ -34,6 +36,9 @@ pub struct ClFile {
     window: usize,
     /// Line starts about [`STRIDE`] apart, for line and column look-ups (found on the first).
     checkpoints: OnceLock<Vec<Checkpoint>>,
+    /// The reader's pre-scan, done while the file was opened (a UTF-8 file: its text is known
+    /// then); each reading does it otherwise.
+    prescan: Option<Prescan>,
 }
 
 /// A line start: its offset in the text and in the file, and the line breaks before it.
@@ -45,60 +50,70 @@ struct Checkpoint {
 }
 
 impl ClFile {
-    /// Opens `path` and finds its encoding and length (one pass over it).
+    /// Opens `path` and finds its encoding and length (one pass over it, which also does the
+    /// reader's pre-scan of a UTF-8 file).
     pub fn open(path: &Path) -> Result<ClFile, Error> {
+        ClFile::open_reading(path, BLOCK, WINDOW)
+    }
+
+    /// The same file opened with reads of `bytes` and read in windows of about `bytes` (for tests
+    /// of the window boundaries).
+    #[doc(hidden)]
+    pub fn open_in_windows(path: &Path, bytes: usize) -> Result<ClFile, Error> {
+        ClFile::open_reading(path, bytes.max(1), bytes.max(1))
+    }
+
+    /// Opens `path` reading `read` bytes at a time, to be read in windows of `window` bytes.
+    fn open_reading(path: &Path, read: usize, window: usize) -> Result<ClFile, Error> {
         let name = path.display().to_string();
         let io = |source| Error::Io { path: name.clone(), source };
         let mut file = std::fs::File::open(path).map_err(io)?;
         let stamp = stamp_of(&file).map_err(io)?;
-        let (mut bytes, mut high, mut utf8) = (0u64, 0u64, true);
-        let mut pending: Vec<u8> = Vec::new();
-        let mut block = vec![0u8; BLOCK];
+        let (mut bytes, mut high) = (0u64, 0u64);
+        // While the text is UTF-8: the pre-scan, the lines not scanned yet (a record running
+        // past the lines read so far comes again) and their offset. Lines end at ASCII bytes,
+        // so whole lines never cut a UTF-8 sequence: checking them in turn checks the file.
+        let mut utf8 = Some((Prescanner::default(), Vec::<u8>::new(), 0usize));
+        let mut block = vec![0u8; read];
         loop {
             let n = file.read(&mut block).map_err(io)?;
-            if n == 0 {
-                break;
-            }
             let data = &block[..n];
             bytes += n as u64;
             high += data.iter().filter(|&&b| b >= 0x80).count() as u64;
-            if utf8 {
-                pending.extend_from_slice(data);
-                match std::str::from_utf8(&pending) {
-                    Ok(_) => pending.clear(),
-                    // A sequence cut by the block's end: kept for the next block.
-                    Err(e) if e.error_len().is_none() => {
-                        pending.drain(..e.valid_up_to());
+            if let Some((scan, text, base)) = utf8.as_mut() {
+                text.extend_from_slice(data);
+                let last = n == 0;
+                let whole = if last { text.len() } else { last_line_end(text) };
+                match std::str::from_utf8(&text[..whole]) {
+                    Ok(lines) => {
+                        let done = scan.window(lines, *base, last);
+                        *base += done;
+                        text.drain(..done);
                     }
-                    Err(_) => utf8 = false,
+                    Err(_) => utf8 = None,
                 }
             }
-        }
-        if !pending.is_empty() {
-            utf8 = false;
+            if n == 0 {
+                break;
+            }
         }
         if bytes != stamp.0 {
             return Err(Error::Changed { path: name });
         }
-        let len = if utf8 { bytes } else { bytes + high };
+        let len = if utf8.is_some() { bytes } else { bytes + high };
         if len > Source::MAX_LEN as u64 {
             return Err(Error::TooLarge { path: name, size: len });
         }
         Ok(ClFile {
             path: path.to_path_buf(),
             name,
-            latin1: !utf8,
+            latin1: utf8.is_none(),
             len: len as usize,
             stamp,
-            window: WINDOW,
+            window,
             checkpoints: OnceLock::new(),
+            prescan: utf8.map(|(scan, ..)| scan.finish()),
         })
-    }
-
-    /// The same file read in windows of about `bytes` (for tests of the window boundaries).
-    #[doc(hidden)]
-    pub fn with_window(self, bytes: usize) -> ClFile {
-        ClFile { window: bytes.max(1), checkpoints: OnceLock::new(), ..self }
     }
 
     /// The name shown in diagnostics (the path).
@@ -132,7 +147,9 @@ impl ClFile {
         options: &ReadOptions,
         sink: &mut impl ItemSink,
     ) -> Result<(ProgramInfo, Vec<Diagnostic>), Error> {
-        read_windows(|each| self.windows_from(Checkpoint::default(), self.window, each), self.len, options, sink)
+        let windows =
+            |each: &mut dyn FnMut(&Window, bool) -> usize| self.windows_from(Checkpoint::default(), self.window, each);
+        read_windows(windows, self.len, self.prescan, options, sink)
     }
 
     /// Line and column of an offset of the text (1-based); reads about [`STRIDE`] bytes of the
@@ -255,6 +272,10 @@ impl ClFile {
         let mut block = if self.latin1 { vec![0u8; read] } else { Vec::new() };
         let mut eof = false;
         let mut want = size;
+        // Windows the pass kept (the reader holds the one before its current one, for messages):
+        // each one's buffer is taken back for the text once the pass lets go of it, rather than
+        // a new buffer grown (and its pages faulted in) for every window.
+        let mut kept: std::collections::VecDeque<Arc<String>> = std::collections::VecDeque::new();
         loop {
             // Whole lines up to the window's size (or to the end of the file).
             while whole < want && !eof {
@@ -298,7 +319,20 @@ impl ClFile {
                     left.drain(..done);
                     left
                 }
-                Err(kept) => kept.as_bytes()[done..].to_vec(),
+                Err(window) => {
+                    let mut buffer = match kept.pop_front().map(Arc::try_unwrap) {
+                        Some(Ok(released)) => released.into_bytes(),
+                        Some(Err(still_held)) => {
+                            kept.push_front(still_held);
+                            Vec::new()
+                        }
+                        None => Vec::new(),
+                    };
+                    buffer.clear();
+                    buffer.extend_from_slice(&window.as_bytes()[done..]);
+                    kept.push_back(window);
+                    buffer
+                }
             };
             if done > 0 {
                 want = size.max(text.len() * 2);

@@ -44,7 +44,7 @@ pub use read::{ItemSink, ReadOptions, read, read_into, read_into_with, read_with
 pub use span::{LineCol, Locate, Source, Span};
 pub use summary::{
     BoundingBox, FeedSummary, MoveCounts, PathLength, Range, Summary, ToolSummary, UnitsSummary, WarningSummary,
-    summarize, summarize_tool_path, summarize_with,
+    summarize, summarize_file, summarize_tool_path, summarize_with,
 };
 
 /// Errors of this crate that are not about the content of a CL file (those are diagnostics).

@@ -1,5 +1,6 @@
 //! The `check` summary: computed while reading, without keeping the tool path, so memory stays
-//! at the size of the source text.
+//! at the size of the source text, or (read from the file in windows, [`summarize_file`]) does
+//! not grow with the file.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -9,7 +10,8 @@ use serde::Serialize;
 use crate::diagnostic::Diagnostic;
 use crate::model::*;
 use crate::read::{ItemSink, ReadOptions, read_into_with};
-use crate::span::Source;
+use crate::span::{LineCol, Source};
+use crate::{ClFile, Error};
 
 /// What `postpro check` reports about a CL file. Field names are the stable JSON keys.
 #[derive(Clone, Debug, Serialize)]
@@ -156,7 +158,20 @@ pub fn summarize(source: &Source) -> (Summary, Vec<Diagnostic>) {
 pub fn summarize_with(source: &Source, options: &ReadOptions) -> (Summary, Vec<Diagnostic>) {
     let mut acc = Accumulator::default();
     let (info, diagnostics) = read_into_with(source, options, &mut acc);
-    (acc.finish(source, &info, &diagnostics), diagnostics)
+    (acc.finish(source.name(), |offset| source.line_col_scan(offset), &info, &diagnostics), diagnostics)
+}
+
+/// Reads a CL file in windows with options and summarises it: what [`summarize_with`] gives for
+/// its text, in memory that does not grow with the file.
+pub fn summarize_file(file: &ClFile, options: &ReadOptions) -> Result<(Summary, Vec<Diagnostic>), Error> {
+    let mut acc = Accumulator::default();
+    let (info, diagnostics) = file.read_into_with(options, &mut acc)?;
+    // The summary locates an offset or two (where the units are set): read from the start up to
+    // them rather than indexing the whole file's lines.
+    let mut lines = file.lines()?;
+    let line_col = |offset| lines.line_col(offset).unwrap_or(LineCol { line: 0, column: 0 });
+    let summary = acc.finish(file.name(), line_col, &info, &diagnostics);
+    Ok((summary, diagnostics))
 }
 
 /// Summarises a tool path already read.
@@ -165,7 +180,7 @@ pub fn summarize_tool_path(source: &Source, path: &ToolPath) -> Summary {
     for item in &path.items {
         acc.push(item.clone());
     }
-    acc.finish(source, &path.info, &path.diagnostics)
+    acc.finish(source.name(), |offset| source.line_col_scan(offset), &path.info, &path.diagnostics)
 }
 
 #[derive(Default)]
@@ -342,9 +357,16 @@ impl Accumulator {
         }
     }
 
-    fn finish(self, source: &Source, info: &ProgramInfo, diagnostics: &[Diagnostic]) -> Summary {
-        let at = |span: crate::span::Span| {
-            let lc = source.line_col_scan(span.start as usize);
+    /// The summary of the file `name`, `line_col` locating an offset of its text.
+    fn finish(
+        self,
+        name: &str,
+        mut line_col: impl FnMut(usize) -> LineCol,
+        info: &ProgramInfo,
+        diagnostics: &[Diagnostic],
+    ) -> Summary {
+        let mut at = |span: crate::span::Span| {
+            let lc = line_col(span.start as usize);
             Some(format!("{}:{}", lc.line, lc.column))
         };
         let (origin, at) = match info.units.origin {
@@ -362,7 +384,7 @@ impl Accumulator {
             |k: usize| self.feed_seen[k].then(|| Range { min: round(self.feed_min[k]), max: round(self.feed_max[k]) });
         let any_motion = self.moves.total + self.arcs + self.nurbs > 0;
         Summary {
-            file: source.name().to_string(),
+            file: name.to_string(),
             cam_system: info.cam_system.map(CamSystem::name),
             part_name: info.part_name.clone(),
             units: UnitsSummary { file: info.units.unit, origin, at },

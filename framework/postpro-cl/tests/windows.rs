@@ -12,7 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
-use postpro_cl::{ClFile, Item, ReadOptions, Source, read_into_with};
+use postpro_cl::{ClFile, Item, ReadOptions, Source, read_into_with, summarize_file, summarize_with};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -69,7 +69,7 @@ fn assert_windows_read_as_whole(path: &Path, windows: &[usize]) {
     let whole = reading_of_source(&source, &options);
     let len = source.text().len();
     for &window in windows {
-        let file = ClFile::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).with_window(window);
+        let file = ClFile::open_in_windows(path, window).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert_eq!(file.len(), len, "{}: the text's length", path.display());
         let windowed = reading_of_file(&file, &options);
         if windowed != whole {
@@ -83,6 +83,15 @@ fn assert_windows_read_as_whole(path: &Path, windows: &[usize]) {
                 around(&windowed)
             );
         }
+        // `check`'s summary, read in windows, is the whole text's.
+        let (summary, diagnostics) = summarize_file(&file, &options).unwrap_or_else(|e| panic!("{}: {e}", file.name()));
+        let (whole_summary, whole_diagnostics) = summarize_with(&source, &options);
+        assert_eq!(
+            format!("{summary:#?}\n{diagnostics:#?}"),
+            format!("{whole_summary:#?}\n{whole_diagnostics:#?}"),
+            "{}: the summary read in windows of {window} bytes",
+            path.display()
+        );
         let step = (len / 97).max(1);
         for offset in (0..=len).step_by(step).chain([len]) {
             assert_eq!(

@@ -16,7 +16,7 @@
 
 mod arcs;
 mod cycles;
-mod prescan;
+pub(crate) mod prescan;
 
 use std::sync::Arc;
 
@@ -93,24 +93,31 @@ pub fn read_into_with(
         each(&Window { text: Arc::clone(&text), base: 0, lines_before: 0 }, true);
         Ok(())
     };
-    match read_windows(whole, text.len(), options, sink) {
+    match read_windows(whole, text.len(), None, options, sink) {
         Ok(read) => read,
         Err(never) => match never {},
     }
 }
 
 /// Reads a text that `windows` hands over in windows (each call of it goes over the whole text
-/// from the start, every window ending at a line end; see [`crate::ClFile`]): the pre-scan, the
-/// arc-sense survey when the sense is not known, then the reading itself.
+/// from the start, every window ending at a line end; see [`crate::ClFile`]): the pre-scan
+/// (unless `pre` holds it already), the arc-sense survey when the sense is not known, then the
+/// reading itself.
 pub(crate) fn read_windows<E>(
     mut windows: impl FnMut(&mut dyn FnMut(&Window, bool) -> usize) -> Result<(), E>,
     len: usize,
+    pre: Option<Prescan>,
     options: &ReadOptions,
     sink: &mut impl ItemSink,
 ) -> Result<(ProgramInfo, Vec<Diagnostic>), E> {
-    let mut scan = prescan::Prescanner::default();
-    windows(&mut |w, last| scan.window(&w.text, w.base, last))?;
-    let pre = scan.finish();
+    let pre = match pre {
+        Some(pre) => pre,
+        None => {
+            let mut scan = prescan::Prescanner::default();
+            windows(&mut |w, last| scan.window(&w.text, w.base, last))?;
+            scan.finish()
+        }
+    };
     let known = match options.arc_sense {
         Some(s) => Some(SensePlan::Known(s, ArcSenseOrigin::Option)),
         None => pre.cam.and_then(|c| c.arc_sense().map(|s| SensePlan::Known(s, ArcSenseOrigin::CamSystem(c)))),

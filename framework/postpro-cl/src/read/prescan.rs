@@ -24,7 +24,7 @@ use crate::words::Word;
 
 /// What the pre-scan found.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Prescan {
+pub(crate) struct Prescan {
     /// The file's length unit and what decided it.
     pub(super) units: UnitsInfo,
     /// The CAM system, when recognised.
@@ -44,7 +44,7 @@ pub(super) fn prescan(src: &str) -> Prescan {
 /// The pre-scan over a text that comes in windows (each ending at a line end; see
 /// [`crate::ClFile`]).
 #[derive(Default)]
-pub(super) struct Prescanner {
+pub(crate) struct Prescanner {
     units: Option<UnitsInfo>,
     feed_hint: Option<UnitsInfo>,
     cam: CamEvidence,
@@ -58,7 +58,7 @@ impl Prescanner {
     /// Scans the lines of `src`, the window of the text at offset `base` (`last`: it ends the
     /// text); returns where it stopped in `src`: the end, or the start of a continued record
     /// that runs past the window, which comes again at the start of the next one.
-    pub(super) fn window(&mut self, src: &str, base: usize, last: bool) -> usize {
+    pub(crate) fn window(&mut self, src: &str, base: usize, last: bool) -> usize {
         let bytes = src.as_bytes();
         let mut pos = 0;
         while pos < bytes.len() {
@@ -137,7 +137,7 @@ impl Prescanner {
     }
 
     /// What the scan found.
-    pub(super) fn finish(self) -> Prescan {
+    pub(crate) fn finish(self) -> Prescan {
         Prescan {
             units: self.units.or(self.feed_hint).unwrap_or_default(),
             cam: self.cam.decide(),
