@@ -4,9 +4,9 @@
 use std::fmt;
 use std::sync::Arc;
 
-use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource, SourceCode};
+use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, MietteSpanContents, NamedSource, SourceCode};
 
-use crate::span::{Source, Span};
+use crate::span::{Locate, Source, Span};
 
 /// How bad a diagnostic is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
@@ -60,8 +60,9 @@ impl Diagnostic {
         self.severity == Severity::Error
     }
 
-    /// `file:line:column: warning: message (label)`.
-    pub fn one_line(&self, source: &Source) -> String {
+    /// `file:line:column: warning: message (label)`, `at` locating the offset (a [`Source`], a
+    /// [`crate::ClFile`]).
+    pub fn one_line(&self, source: &impl Locate) -> String {
         let sev = match self.severity {
             Severity::Warning => "warning",
             Severity::Error => "error",
@@ -72,14 +73,22 @@ impl Diagnostic {
     /// The miette rendering: file:line:column, the source line, a caret and the label.
     /// Without colours, so it can be pinned in snapshots and read in logs.
     pub fn render(&self, source: &Source) -> String {
-        let with_source =
-            WithSource { diagnostic: self, source: NamedSource::new(source.name(), SharedText(source.shared_text())) };
+        let whole = Excerpt { name: source.name().to_string(), text: source.shared_text(), offset: 0, line: 0 };
+        self.miette(&whole).unwrap_or_else(|| self.one_line(source))
+    }
+
+    /// What [`Self::render`] shows, from lines of the text around the diagnostic
+    /// ([`crate::ClFile::excerpt`]) rather than the whole text.
+    pub fn render_excerpt(&self, excerpt: &Excerpt) -> String {
+        self.miette(excerpt).unwrap_or_else(|| self.one_line(excerpt))
+    }
+
+    /// The miette rendering, unless it fails.
+    fn miette(&self, excerpt: &Excerpt) -> Option<String> {
+        let with_source = WithSource { diagnostic: self, source: NamedSource::new(&excerpt.name, excerpt.clone()) };
         let mut out = String::new();
         let handler = GraphicalReportHandler::new_themed(GraphicalTheme::unicode_nocolor()).with_width(100);
-        if handler.render_report(&mut out, &with_source).is_err() {
-            return self.one_line(source);
-        }
-        out
+        handler.render_report(&mut out, &with_source).ok().map(|()| out)
     }
 }
 
@@ -113,18 +122,54 @@ impl miette::Diagnostic for Diagnostic {
     }
 }
 
-/// The shared source text, for miette.
-#[derive(Debug)]
-struct SharedText(Arc<String>);
+/// Whole lines of a source's text (or all of it) and where they sit in it: what a diagnostic is
+/// shown with ([`Diagnostic::render_excerpt`]).
+#[derive(Clone, Debug)]
+pub struct Excerpt {
+    /// The source's name (the path).
+    pub(crate) name: String,
+    /// The lines.
+    pub(crate) text: Arc<String>,
+    /// The offset of their first byte in the source's text.
+    pub(crate) offset: usize,
+    /// The line breaks before them (0-based line of the first).
+    pub(crate) line: usize,
+}
 
-impl SourceCode for SharedText {
+impl Locate for Excerpt {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Line and column of an offset of the whole text within the excerpt (the excerpt's first
+    /// line for one before it, its end for one past it).
+    fn line_col(&self, offset: usize) -> crate::span::LineCol {
+        let within = offset.saturating_sub(self.offset);
+        let lc = Source::new("", self.text.as_str()).line_col_scan(within);
+        crate::span::LineCol { line: lc.line + self.line, column: lc.column }
+    }
+}
+
+impl SourceCode for Excerpt {
+    /// The lines around `span` (offsets of the whole text), as miette reads them from the whole
+    /// text: read in the excerpt, their offset and line numbers moved back to the whole text's.
     fn read_span<'a>(
         &'a self,
         span: &miette::SourceSpan,
         before: usize,
         after: usize,
     ) -> Result<Box<dyn miette::SpanContents<'a> + 'a>, miette::MietteError> {
-        self.0.as_str().read_span(span, before, after)
+        let start = span.offset().checked_sub(self.offset).ok_or(miette::MietteError::OutOfBounds)?;
+        let local = miette::SourceSpan::new(start.into(), span.len());
+        let contents = self.text.as_str().read_span(&local, before, after)?;
+        let whole = miette::SourceSpan::new((contents.span().offset() + self.offset).into(), contents.span().len());
+        Ok(Box::new(MietteSpanContents::new(
+            contents.data(),
+            whole,
+            contents.line() + self.line,
+            contents.column(),
+            contents.line_count(),
+        )))
     }
 }
 
@@ -132,7 +177,7 @@ impl SourceCode for SharedText {
 #[derive(Debug)]
 struct WithSource<'d> {
     diagnostic: &'d Diagnostic,
-    source: NamedSource<SharedText>,
+    source: NamedSource<Excerpt>,
 }
 
 impl fmt::Display for WithSource<'_> {

@@ -11,8 +11,10 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 use std::time::SystemTime;
 
+use crate::diagnostic::Excerpt;
 use crate::read::prescan::{Prescan, Prescanner};
 use crate::read::{ItemSink, ReadOptions, Window, read_windows};
+use crate::span::Span;
 use crate::span::{LineCol, Locate, Source};
 use crate::{Diagnostic, Error, ProgramInfo};
 
@@ -171,6 +173,31 @@ impl ClFile {
         };
         let _ = self.windows_from(from, STRIDE, &mut look);
         found
+    }
+
+    /// Whole lines of the text around `span`: from a stretch of lines before it (the checkpoint
+    /// before the one at or before it) to a few lines after it, what a diagnostic is shown with
+    /// ([`Diagnostic::render_excerpt`]) without reading the whole text. Reads about two
+    /// [`STRIDE`]s (the first excerpt or look-up also reads the whole file once, for the
+    /// checkpoints).
+    pub fn excerpt(&self, span: Span) -> Result<Excerpt, Error> {
+        // More lines after the span than miette shows around it.
+        const AFTER: usize = 4;
+        let start = (span.start as usize).min(self.len);
+        let end = (span.start as usize + span.len as usize).clamp(start, self.len);
+        let unreadable = || Error::Changed { path: self.name.clone() };
+        let points = self.checkpoints().ok_or_else(unreadable)?;
+        let k = points.partition_point(|p| p.text <= start);
+        let from = points.get(k.saturating_sub(2)).copied().unwrap_or_default();
+        let mut text = String::new();
+        let mut collect = |w: &Window, last: bool| {
+            text.push_str(&w.text);
+            let read_to = from.text + text.len();
+            let enough = read_to > end && line_breaks(&text.as_bytes()[end - from.text..]) > AFTER;
+            if enough || last { w.text.len() + 1 } else { w.text.len() }
+        };
+        self.windows_from(from, STRIDE, &mut collect)?;
+        Ok(Excerpt { name: self.name.clone(), text: Arc::new(text), offset: from.text, line: from.lines_before })
     }
 
     /// `name:line:column` of an offset of the text.

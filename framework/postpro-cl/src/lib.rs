@@ -37,7 +37,7 @@ mod words;
 
 use std::path::Path;
 
-pub use diagnostic::{Diagnostic, Severity};
+pub use diagnostic::{Diagnostic, Excerpt, Severity};
 pub use file::{ClFile, Lines};
 pub use model::*;
 pub use read::{ItemSink, ReadOptions, read, read_into, read_into_with, read_with};

@@ -1,7 +1,8 @@
 //! A CL file read in windows ([`ClFile`], what the main job reads) reads exactly as the whole
 //! text ([`Source`]) does: the same items with the same spans, the same diagnostics and summary,
 //! and the same line and column for every offset (also those of offsets asked for in order,
-//! [`ClFile::lines`]). Windows are made small (a few hundred bytes
+//! [`ClFile::lines`]); every diagnostic shown from an excerpt of the file ([`ClFile::excerpt`])
+//! as from the whole text. Windows are made small (a few hundred bytes
 //! to a few KiB) so that records, `$` continuations, comments, CRLF pairs and multi-byte
 //! characters fall across their boundaries, and records longer than a window make it grow.
 //!
@@ -92,6 +93,12 @@ fn assert_windows_read_as_whole(path: &Path, windows: &[usize]) {
             "{}: the summary read in windows of {window} bytes",
             path.display()
         );
+        // Each diagnostic shown with lines read around it, as with the whole text.
+        for d in &whole_diagnostics {
+            let excerpt = file.excerpt(d.span).unwrap_or_else(|e| panic!("{}: {e}", file.name()));
+            assert_eq!(d.render_excerpt(&excerpt), d.render(&source), "{}: windows of {window}", path.display());
+            assert_eq!(d.one_line(&file), d.one_line(&source), "{}: windows of {window}", path.display());
+        }
         let step = (len / 97).max(1);
         for offset in (0..=len).step_by(step).chain([len]) {
             assert_eq!(
@@ -134,6 +141,16 @@ fn line_ends_encodings_and_long_records_cross_window_boundaries() {
         ("no-final-line-end.cl", base.trim_end().as_bytes().to_vec()),
         ("long-record.cl", format!("{long_record}{base}{long_record}").into_bytes()),
         ("utf8.cl", format!("PPRINT/Maße für Ölwanne €\n{base}PPRINT/Schlußprüfung\n").into_bytes()),
+        // Errors all through a file of several checkpoints (64 KiB apart), right after them
+        // too: each one's excerpt must hold the lines around it.
+        ("errors.cl", {
+            let mut text = String::new();
+            for (k, line) in base.lines().cycle().take(12_000).enumerate() {
+                text.push_str(if k % 997 == 0 || k % 1499 == 1 { "GOTO/1,2,zz" } else { line });
+                text.push('\n');
+            }
+            text.into_bytes()
+        }),
     ];
     // Latin-1: a byte from 0x80 up in the file, two bytes in the text.
     let mut latin1 = b"PPRINT/Ma\xdfe f\xfcr \xd6lwanne\r\n".to_vec();

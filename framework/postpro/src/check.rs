@@ -1,13 +1,13 @@
 //! `postpro check FILE`: read a CL file and summarise it, with every diagnostic. The file is read
-//! in windows (memory does not grow with it); its whole text is read again only to show
-//! diagnostics with their lines.
+//! in windows (memory does not grow with it), and so are the lines the diagnostics are shown
+//! with.
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use postpro_cl::{ClFile, Diagnostic, Source, Summary, summarize_file};
+use postpro_cl::{ClFile, Diagnostic, Summary, summarize_file};
 
 /// How many diagnostics are rendered in full; the rest are listed one per line.
 const RENDERED: usize = 20;
@@ -48,14 +48,9 @@ pub(crate) fn run(args: &CheckArgs) -> ExitCode {
         let (mb, seconds) = (file.len() as f64 / 1e6, started.elapsed().as_secs_f64());
         eprintln!("read {mb:.1} MB in {seconds:.3} s: {:.0} MB/s", mb / seconds.max(1e-9));
     }
-    if !diagnostics.is_empty() {
-        match file.source() {
-            Ok(source) => print_diagnostics(&source, &diagnostics, args.brief),
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(1);
-            }
-        }
+    if let Err(e) = print_diagnostics(&file, &diagnostics, args.brief) {
+        eprintln!("error: {e}");
+        return ExitCode::from(1);
     }
     let mut out = std::io::stdout().lock();
     let written = if args.json {
@@ -70,19 +65,20 @@ pub(crate) fn run(args: &CheckArgs) -> ExitCode {
     if summary.errors > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS }
 }
 
-fn print_diagnostics(source: &Source, diagnostics: &[Diagnostic], brief: bool) {
+fn print_diagnostics(file: &ClFile, diagnostics: &[Diagnostic], brief: bool) -> Result<(), postpro_cl::Error> {
     let mut err = std::io::stderr().lock();
     let full = if brief { 0 } else { RENDERED };
     // Errors first: they are what stops the file from reading.
     let mut ordered: Vec<&Diagnostic> = diagnostics.iter().filter(|d| d.is_error()).collect();
     ordered.extend(diagnostics.iter().filter(|d| !d.is_error()));
     for (k, d) in ordered.iter().enumerate() {
-        let text = if k < full { d.render(source) } else { d.one_line(source) + "\n" };
+        let text = if k < full { d.render_excerpt(&file.excerpt(d.span)?) } else { d.one_line(file) + "\n" };
         let _ = err.write_all(text.as_bytes());
     }
     if !brief && ordered.len() > full && std::io::stderr().is_terminal() {
         let _ = writeln!(err, "({} diagnostics, the first {full} shown in full)", ordered.len());
     }
+    Ok(())
 }
 
 fn table(s: &Summary) -> String {

@@ -1084,12 +1084,17 @@ fn surveyed<R>(
     let surveyed = survey(&file, &read_options, kin, policy, setup.tool_table.as_ref(), progress);
     let surveyed = surveyed.map_err(|e| render(PassError::Read(e)))?;
     if surveyed.diagnostics.iter().any(postpro_cl::Diagnostic::is_error) {
-        // The text is read whole to show the errors with their lines.
-        progress.suspend(|| match file.source() {
-            Ok(source) => {
-                surveyed.diagnostics.iter().filter(|d| d.is_error()).for_each(|d| eprint!("{}", d.render(&source)))
+        // Each error with the lines around it, read from the file.
+        progress.suspend(|| {
+            for d in surveyed.diagnostics.iter().filter(|d| d.is_error()) {
+                match file.excerpt(d.span) {
+                    Ok(excerpt) => eprint!("{}", d.render_excerpt(&excerpt)),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        break;
+                    }
+                }
             }
-            Err(e) => eprintln!("error: {e}"),
         });
         return Err(fail(&format!("error: {} does not read; {nothing}\n", file.name()), 1));
     }
