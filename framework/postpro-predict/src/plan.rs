@@ -826,10 +826,9 @@ impl Stepper {
                 // reach it has now (the reach only grows).
                 return self.wait(Need::Beyond { next: m, at: u1 + 1.25 * reach, last });
             };
-            // A whole run at once, where each of its junctions would be passed over: no stop,
-            // not the window's end, no tighter limits, within the reach, and no cap the speed
-            // reaches or else every such cap surely reached in time.
-            // The longest run that starts here and can be passed over.
+            // The longest run starting here whose junctions would each be passed over, at once:
+            // no stop, not the window's end, within the reach, and no cap the speed reaches or
+            // else every such cap surely reached in time.
             for (runs, n) in self.runs.iter().zip(RUNS) {
                 if m.is_multiple_of(n)
                     && !work::one_by_one()
