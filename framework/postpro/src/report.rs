@@ -18,7 +18,17 @@ pub(crate) fn render_with_source<D>(diagnostic: D, name: &str, text: &str) -> St
 where
     D: Diagnostic + Send + Sync + 'static,
 {
-    let report = miette::Report::new(diagnostic).with_source_code(NamedSource::new(name, text.to_string()));
+    render_with_code(diagnostic, name, text.to_string())
+}
+
+/// The rendered report of a diagnostic whose spans point into `code` (the text, or lines of it
+/// that hold them: a [`postpro_cl::Excerpt`]), named `name`.
+pub(crate) fn render_with_code<D, S>(diagnostic: D, name: &str, code: S) -> String
+where
+    D: Diagnostic + Send + Sync + 'static,
+    S: miette::SourceCode + Send + Sync + 'static,
+{
+    let report = miette::Report::new(diagnostic).with_source_code(NamedSource::new(name, code));
     render(report.as_ref())
 }
 

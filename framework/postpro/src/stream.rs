@@ -1383,12 +1383,26 @@ impl Pass<'_> {
     }
 }
 
-/// The rendered report of an error whose spans point into the CL text: the text is read whole
-/// for it (the job stops there).
+/// The rendered report of an error whose spans point into the CL text: with the lines around
+/// them read from the file when they lie within a few MB of each other, else with the text read
+/// whole (the job stops there).
 fn render_in<D>(e: D, file: &ClFile) -> String
 where
     D: miette::Diagnostic + Send + Sync + 'static,
 {
+    /// Spans further apart are shown from the whole text.
+    const EXCERPT_SPAN: usize = 4 << 20;
+    let labels = e.labels().map(|labels| labels.map(|l| (l.offset(), l.offset() + l.len())).collect::<Vec<_>>());
+    let range = labels.filter(|spans| !spans.is_empty()).map(|spans| {
+        let start = spans.iter().map(|s| s.0).min().unwrap_or(0);
+        (start, spans.iter().map(|s| s.1).max().unwrap_or(start))
+    });
+    if let Some((start, end)) = range
+        && end - start <= EXCERPT_SPAN
+        && let Ok(excerpt) = file.excerpt(postpro_cl::Span::new(start, end))
+    {
+        return report::render_with_code(e, file.name(), excerpt);
+    }
     match file.source() {
         Ok(source) => report::render_with_source(e, source.name(), source.text()),
         Err(_) => report::render(&e),
