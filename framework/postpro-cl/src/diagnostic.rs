@@ -60,8 +60,8 @@ impl Diagnostic {
         self.severity == Severity::Error
     }
 
-    /// `file:line:column: warning: message (label)`, `at` locating the offset (a [`Source`], a
-    /// [`crate::ClFile`]).
+    /// `file:line:column: warning: message (label)`, `source` locating the offset (a [`Source`],
+    /// a [`crate::ClFile`], an [`Excerpt`]).
     pub fn one_line(&self, source: &impl Locate) -> String {
         let sev = match self.severity {
             Severity::Warning => "warning",
@@ -73,8 +73,7 @@ impl Diagnostic {
     /// The miette rendering: file:line:column, the source line, a caret and the label.
     /// Without colours, so it can be pinned in snapshots and read in logs.
     pub fn render(&self, source: &Source) -> String {
-        let whole = Excerpt { name: source.name().to_string(), text: source.shared_text(), offset: 0, line: 0 };
-        self.miette(&whole).unwrap_or_else(|| self.one_line(source))
+        self.miette(&Excerpt::whole(source)).unwrap_or_else(|| self.one_line(source))
     }
 
     /// What [`Self::render`] shows, from lines of the text around the diagnostic
@@ -134,6 +133,13 @@ pub struct Excerpt {
     pub(crate) offset: usize,
     /// The line breaks before them (0-based line of the first).
     pub(crate) line: usize,
+}
+
+impl Excerpt {
+    /// All of `source`'s text (shared, not copied).
+    pub fn whole(source: &Source) -> Excerpt {
+        Excerpt { name: source.name().to_string(), text: source.shared_text(), offset: 0, line: 0 }
+    }
 }
 
 impl Locate for Excerpt {

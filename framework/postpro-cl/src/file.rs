@@ -14,8 +14,7 @@ use std::time::SystemTime;
 use crate::diagnostic::Excerpt;
 use crate::read::prescan::{Prescan, Prescanner};
 use crate::read::{ItemSink, ReadOptions, Window, read_windows};
-use crate::span::Span;
-use crate::span::{LineCol, Locate, Source};
+use crate::span::{LineCol, Locate, Source, Span};
 use crate::{Diagnostic, Error, ProgramInfo};
 
 /// The size of a window (a record longer than that makes it grow).
@@ -159,9 +158,7 @@ impl ClFile {
     /// past the end is taken as the end; line 0 if the file cannot be read.
     pub fn line_col(&self, offset: usize) -> LineCol {
         let offset = offset.min(self.len);
-        let Some(points) = self.checkpoints() else { return LineCol { line: 0, column: 0 } };
-        let k = points.partition_point(|p| p.text <= offset);
-        let from = k.checked_sub(1).and_then(|k| points.get(k)).copied().unwrap_or_default();
+        let Some(from) = self.checkpoint_before(offset, 0) else { return LineCol { line: 0, column: 0 } };
         let mut found = LineCol { line: 0, column: 0 };
         let mut look = |w: &Window, last: bool| {
             if offset >= w.base + w.text.len() && !last {
@@ -186,9 +183,7 @@ impl ClFile {
         let start = (span.start as usize).min(self.len);
         let end = (span.start as usize + span.len as usize).clamp(start, self.len);
         let unreadable = || Error::Changed { path: self.name.clone() };
-        let points = self.checkpoints().ok_or_else(unreadable)?;
-        let k = points.partition_point(|p| p.text <= start);
-        let from = points.get(k.saturating_sub(2)).copied().unwrap_or_default();
+        let from = self.checkpoint_before(start, 1).ok_or_else(unreadable)?;
         let mut text = String::new();
         let mut collect = |w: &Window, last: bool| {
             text.push_str(&w.text);
@@ -222,6 +217,14 @@ impl ClFile {
             return Err(Error::Changed { path: self.name.clone() });
         }
         Ok(file)
+    }
+
+    /// The checkpoint at or before `offset`, or `back` checkpoints before that one (the first if
+    /// there are not so many); `None` if the file cannot be read.
+    fn checkpoint_before(&self, offset: usize, back: usize) -> Option<Checkpoint> {
+        let points = self.checkpoints()?;
+        let at = points.partition_point(|p| p.text <= offset).saturating_sub(1 + back);
+        Some(points.get(at).copied().unwrap_or_default())
     }
 
     /// The checkpoints, found by reading the file once (`None` if it cannot be read).
@@ -482,18 +485,18 @@ fn line_breaks(bytes: &[u8]) -> usize {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn high_bytes_are_counted_across_runs() {
         let data: Vec<u8> = (0..2000u32).map(|k| (k * 37 % 256) as u8).collect();
         for end in [0, 1, 254, 255, 256, 511, 2000] {
             let slice = &data[..end];
             let expected = slice.iter().filter(|&&b| b >= 0x80).count() as u64;
-            assert_eq!(super::high_bytes(slice), expected, "{end} bytes");
+            assert_eq!(high_bytes(slice), expected, "{end} bytes");
         }
-        assert_eq!(super::high_bytes(&[0xFF; 1000]), 1000);
+        assert_eq!(high_bytes(&[0xFF; 1000]), 1000);
     }
-
-    use super::*;
 
     #[test]
     fn a_line_end_is_never_cut_in_two() {

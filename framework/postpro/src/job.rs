@@ -224,7 +224,7 @@ pub(crate) fn prepare(
     let mode = mode.resolve(&path, &machine, dialect);
     let solve_machine = solving_machine(&machine);
     let solver = chosen.solver(&solve_machine)?;
-    let render = |e: postpro_motion::MotionError| report::render_with_source(e, source.name(), source.text());
+    let render = |e: postpro_motion::MotionError| report::render_with_source(e, &source);
     // The tools with the lengths they are solved with (the work offset is the dialect's
     // business: it is chosen when the program is written).
     let (tools, tool_warnings) = postpro_motion::Job::new(
@@ -243,7 +243,7 @@ pub(crate) fn prepare(
     if let Some(e) = solver.take_error() {
         return Err(fail(&report::render(&e), 1));
     }
-    let solved = solved.map_err(|e| fail(&report::render_with_source(e, source.name(), source.text()), 1))?;
+    let solved = solved.map_err(|e| fail(&report::render_with_source(e, &source), 1))?;
     Ok(Job {
         source,
         path,
@@ -279,8 +279,7 @@ impl Job {
         let mut options = postpro_emit::motion_options(dialect, self.mode, !how.linear_arcs);
         options.cycles = !how.expand_cycles;
         options.planes = planes;
-        let render =
-            |e: postpro_motion::MotionError| report::render_with_source(e, self.source.name(), self.source.text());
+        let render = |e: postpro_motion::MotionError| report::render_with_source(e, &self.source);
         let program =
             postpro_motion::collect(&self.path, &self.solved, kin, &options, &job).map_err(|e| fail(&render(e), 1))?;
         let travel = postpro_motion::travel::check(

@@ -13,12 +13,13 @@ pub(crate) fn render(diagnostic: &dyn Diagnostic) -> String {
     out
 }
 
-/// The rendered report of a diagnostic whose spans point into `text` (named `name`).
-pub(crate) fn render_with_source<D>(diagnostic: D, name: &str, text: &str) -> String
+/// The rendered report of a diagnostic whose spans point into `source`'s text (shared with the
+/// report, not copied).
+pub(crate) fn render_with_source<D>(diagnostic: D, source: &postpro_cl::Source) -> String
 where
     D: Diagnostic + Send + Sync + 'static,
 {
-    render_with_code(diagnostic, name, text.to_string())
+    render_with_code(diagnostic, source.name(), postpro_cl::Excerpt::whole(source))
 }
 
 /// The rendered report of a diagnostic whose spans point into `code` (the text, or lines of it

@@ -1392,10 +1392,9 @@ where
 {
     /// Spans further apart are shown from the whole text.
     const EXCERPT_SPAN: usize = 4 << 20;
-    let labels = e.labels().map(|labels| labels.map(|l| (l.offset(), l.offset() + l.len())).collect::<Vec<_>>());
-    let range = labels.filter(|spans| !spans.is_empty()).map(|spans| {
-        let start = spans.iter().map(|s| s.0).min().unwrap_or(0);
-        (start, spans.iter().map(|s| s.1).max().unwrap_or(start))
+    // Where the labels start and end, together.
+    let range = e.labels().and_then(|labels| {
+        labels.map(|l| (l.offset(), l.offset() + l.len())).reduce(|(s, e), (s2, e2)| (s.min(s2), e.max(e2)))
     });
     if let Some((start, end)) = range
         && end - start <= EXCERPT_SPAN
@@ -1404,7 +1403,7 @@ where
         return report::render_with_code(e, file.name(), excerpt);
     }
     match file.source() {
-        Ok(source) => report::render_with_source(e, source.name(), source.text()),
+        Ok(source) => report::render_with_source(e, &source),
         Err(_) => report::render(&e),
     }
 }
