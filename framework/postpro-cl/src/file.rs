@@ -158,7 +158,7 @@ impl ClFile {
     /// past the end is taken as the end; line 0 if the file cannot be read.
     pub fn line_col(&self, offset: usize) -> LineCol {
         let offset = offset.min(self.len);
-        let Some(from) = self.checkpoint_before(offset, 0) else { return LineCol { line: 0, column: 0 } };
+        let Ok(from) = self.checkpoint_before(offset, 0) else { return LineCol { line: 0, column: 0 } };
         let mut found = LineCol { line: 0, column: 0 };
         let mut look = |w: &Window, last: bool| {
             if offset >= w.base + w.text.len() && !last {
@@ -182,8 +182,7 @@ impl ClFile {
         const AFTER: usize = 4;
         let start = (span.start as usize).min(self.len);
         let end = (span.start as usize + span.len as usize).clamp(start, self.len);
-        let unreadable = || Error::Changed { path: self.name.clone() };
-        let from = self.checkpoint_before(start, 1).ok_or_else(unreadable)?;
+        let from = self.checkpoint_before(start, 1)?;
         let mut text = String::new();
         let mut collect = |w: &Window, last: bool| {
             text.push_str(&w.text);
@@ -220,17 +219,17 @@ impl ClFile {
     }
 
     /// The checkpoint at or before `offset`, or `back` checkpoints before that one (the first if
-    /// there are not so many); `None` if the file cannot be read.
-    fn checkpoint_before(&self, offset: usize, back: usize) -> Option<Checkpoint> {
+    /// there are not so many); an error if the file cannot be read again or changed.
+    fn checkpoint_before(&self, offset: usize, back: usize) -> Result<Checkpoint, Error> {
         let points = self.checkpoints()?;
         let at = points.partition_point(|p| p.text <= offset).saturating_sub(1 + back);
-        Some(points.get(at).copied().unwrap_or_default())
+        Ok(points.get(at).copied().unwrap_or_default())
     }
 
-    /// The checkpoints, found by reading the file once (`None` if it cannot be read).
-    fn checkpoints(&self) -> Option<&[Checkpoint]> {
+    /// The checkpoints, found by reading the file once.
+    fn checkpoints(&self) -> Result<&[Checkpoint], Error> {
         if let Some(points) = self.checkpoints.get() {
-            return Some(points);
+            return Ok(points);
         }
         let mut points: Vec<Checkpoint> = Vec::new();
         let mut record = |w: &Window, _: bool| {
@@ -244,9 +243,9 @@ impl ClFile {
             }
             text.len()
         };
-        self.windows_from(Checkpoint::default(), self.window, &mut record).ok()?;
-        self.with_file_offsets(&mut points).ok()?;
-        Some(self.checkpoints.get_or_init(|| points))
+        self.windows_from(Checkpoint::default(), self.window, &mut record)?;
+        self.with_file_offsets(&mut points)?;
+        Ok(self.checkpoints.get_or_init(|| points))
     }
 
     /// Sets the file offset of each checkpoint.
@@ -505,5 +504,27 @@ mod tests {
         assert_eq!(last_line_end(b"ab\rcd"), 3);
         assert_eq!(last_line_end(b"abcd"), 0);
         assert_eq!(line_breaks(b"a\r\nb\rc\nd"), 3);
+    }
+
+    /// A file read again for a diagnostic's lines may have gone or changed since the job opened
+    /// it: the error says which, not one for the other.
+    #[test]
+    fn an_excerpt_of_a_file_gone_or_changed_says_which() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = std::env::temp_dir().join(format!("postpro-cl-excerpt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        let text = "GOTO/1,2,3\nGOTO/4,5,6\n";
+        let span = Span { start: 11, len: 10 };
+        let path = dir.join("gone.cl");
+        std::fs::write(&path, text)?;
+        let file = ClFile::open(&path)?;
+        std::fs::remove_file(&path)?;
+        assert!(matches!(file.excerpt(span), Err(Error::Io { .. })), "{:?}", file.excerpt(span).err());
+        let path = dir.join("changed.cl");
+        std::fs::write(&path, text)?;
+        let file = ClFile::open(&path)?;
+        std::fs::write(&path, format!("{text}GOTO/7,8,9\n"))?;
+        assert!(matches!(file.excerpt(span), Err(Error::Changed { .. })), "{:?}", file.excerpt(span).err());
+        std::fs::remove_dir_all(&dir)?;
+        Ok(())
     }
 }
