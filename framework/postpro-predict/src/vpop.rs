@@ -21,8 +21,8 @@
 use crate::moves::{BlockKind, Blocks, SplineRun};
 use crate::plan::{Limit, Piece, TrackBuilder};
 use crate::window::Window;
-use postpro_kin::Kinematics;
 use postpro_kin::bspline::{Cursor, Spline};
+use postpro_kin::{Kinematics, MAX_AXES};
 use postpro_machine::model::Machine;
 
 /// What a piece of a track is, for rebuilding the axis motion from the parameter.
@@ -312,7 +312,9 @@ fn curve_piece(
 ) -> Piece {
     let axes = &machine.axes;
     let cnc = &machine.cnc;
-    let mut worst = vec![[0.0_f64; 3]; axes.len()];
+    // The largest |q_s|, |q_ss|, |q_sss| of each axis over the probes.
+    let mut worst = [[0.0_f64; 3]; MAX_AXES];
+    let worst = &mut worst[..axes.len()];
     let mut tip_rate: f64 = 0.0;
     const PROBES: usize = 6;
     // Probes just inside the ends: the derivatives of the span the piece lies in.
@@ -338,11 +340,11 @@ fn curve_piece(
         jerk_limit: Limit::TangentialJerk,
     };
     // The first derivative is quadratic within a span: a margin for its peak between probes.
-    for w in &mut worst {
+    for w in worst.iter_mut() {
         w[0] *= 1.01;
     }
     // Paper 003's quick bound, at 0.8 of it so that the curvature terms leave room.
-    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
+    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&*worst).enumerate() {
         let index = index as u16;
         let mut bound = f64::INFINITY;
         let mut why = Limit::Velocity(index);
@@ -359,7 +361,7 @@ fn curve_piece(
         tighten(&mut piece.velocity, &mut piece.velocity_limit, 0.8 * bound, why);
     }
     let v = piece.velocity;
-    for (index, (axis, [q1, q2, _])) in axes.iter().zip(&worst).enumerate() {
+    for (index, (axis, [q1, q2, _])) in axes.iter().zip(&*worst).enumerate() {
         if *q1 <= 0.0 {
             continue;
         }
@@ -368,7 +370,7 @@ fn curve_piece(
         tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_cap, Limit::Acceleration(index));
     }
     let a = piece.acceleration.min(1e12);
-    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&worst).enumerate() {
+    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&*worst).enumerate() {
         if *q1 <= 0.0 {
             continue;
         }
