@@ -205,7 +205,8 @@ impl ClFile {
     pub fn lines(&self) -> Result<Lines, Error> {
         let file = self.reopen()?;
         let reader = std::io::BufReader::with_capacity(BLOCK, file);
-        Ok(Lines { reader, latin1: self.latin1, len: self.len, text: 0, line: 1, column: 0, after_cr: false })
+        let at = Walk { text: 0, line: 1, column: 0, after_cr: false };
+        Ok(Lines { reader, latin1: self.latin1, len: self.len, at })
     }
 
     /// The file opened again for a reading, unless it changed since it was first read.
@@ -380,6 +381,13 @@ pub struct Lines {
     reader: std::io::BufReader<std::fs::File>,
     latin1: bool,
     len: usize,
+    /// Where the reading is.
+    at: Walk,
+}
+
+/// Where [`Lines`] has read up to in the text.
+#[derive(Debug)]
+struct Walk {
     /// The offset of the text read up to, its line, and the characters of that line before it.
     text: usize,
     line: usize,
@@ -395,40 +403,74 @@ impl Lines {
     pub fn line_col(&mut self, offset: usize) -> std::io::Result<LineCol> {
         use std::io::BufRead;
         let offset = offset.min(self.len);
-        while self.text < offset {
+        let at = &mut self.at;
+        while at.text < offset {
             let buffer = self.reader.fill_buf()?;
             if buffer.is_empty() {
                 break;
             }
-            let mut used = 0;
-            for &b in buffer {
-                if self.text >= offset {
-                    break;
-                }
-                used += 1;
-                // A lone `\r` ended a line: the byte after it starts one.
-                if self.after_cr && b != b'\n' {
-                    (self.line, self.column) = (self.line + 1, 0);
-                }
-                self.after_cr = b == b'\r';
-                if b == b'\n' {
-                    (self.line, self.column) = (self.line + 1, 0);
-                } else if self.latin1 || b & 0xC0 != 0x80 {
-                    // A character starts here (not a UTF-8 continuation byte).
-                    self.column += 1;
-                }
-                self.text += if self.latin1 && b >= 0x80 { 2 } else { 1 };
-            }
+            let used = if self.latin1 { at.latin1(buffer, offset) } else { at.utf8(buffer, offset) };
             self.reader.consume(used);
         }
         // At a `\r`'s end: a line starts here unless a `\n` comes next.
-        if self.after_cr {
+        if at.after_cr {
             let next = self.reader.fill_buf()?.first().copied();
             if next != Some(b'\n') {
-                return Ok(LineCol { line: self.line + 1, column: 1 });
+                return Ok(LineCol { line: at.line + 1, column: 1 });
             }
         }
-        Ok(LineCol { line: self.line, column: self.column + 1 })
+        Ok(LineCol { line: at.line, column: at.column + 1 })
+    }
+}
+
+impl Walk {
+    /// Takes in the bytes of `buffer` up to `offset` (a UTF-8 file: a byte is a byte of text)
+    /// by their line ends, counting the characters of the last line only; returns how many.
+    fn utf8(&mut self, buffer: &[u8], offset: usize) -> usize {
+        let chunk = &buffer[..buffer.len().min(offset - self.text)];
+        // A lone `\r` ended a line: the byte after it starts one.
+        if self.after_cr && chunk.first().is_some_and(|&b| b != b'\n') {
+            (self.line, self.column) = (self.line + 1, 0);
+        }
+        // Where the characters of the line the chunk ends in start.
+        let mut start = 0;
+        for i in memchr::memchr2_iter(b'\n', b'\r', chunk) {
+            // A `\r` at the chunk's end waits for the next byte (`after_cr`).
+            let ends_line = chunk[i] == b'\n' || chunk.get(i + 1).is_some_and(|&b| b != b'\n');
+            if ends_line {
+                (self.line, self.column, start) = (self.line + 1, 0, i + 1);
+            }
+        }
+        // Each byte that is not a UTF-8 continuation byte starts a character.
+        self.column += chunk[start..].iter().filter(|&&b| b & 0xC0 != 0x80).count();
+        if let Some(&last) = chunk.last() {
+            self.after_cr = last == b'\r';
+        }
+        self.text += chunk.len();
+        chunk.len()
+    }
+
+    /// Takes in the bytes of `buffer` up to `offset` one by one (a Latin-1 file: a byte from
+    /// 0x80 up is two bytes of text); returns how many.
+    fn latin1(&mut self, buffer: &[u8], offset: usize) -> usize {
+        let mut used = 0;
+        for &b in buffer {
+            if self.text >= offset {
+                break;
+            }
+            used += 1;
+            if self.after_cr && b != b'\n' {
+                (self.line, self.column) = (self.line + 1, 0);
+            }
+            self.after_cr = b == b'\r';
+            if b == b'\n' {
+                (self.line, self.column) = (self.line + 1, 0);
+            } else {
+                self.column += 1;
+            }
+            self.text += if b >= 0x80 { 2 } else { 1 };
+        }
+        used
     }
 }
 
