@@ -38,8 +38,8 @@ pub struct ClFile {
     /// Line starts about [`STRIDE`] apart, for line and column look-ups (found on the first).
     checkpoints: OnceLock<Vec<Checkpoint>>,
     /// The reader's pre-scan, done while the file was opened (a UTF-8 file: its text is known
-    /// then); each reading does it otherwise.
-    prescan: Option<Prescan>,
+    /// then), or else by the first reading (a Latin-1 file).
+    prescan: OnceLock<Prescan>,
 }
 
 /// A line start: its offset in the text and in the file, and the line breaks before it.
@@ -113,7 +113,7 @@ impl ClFile {
             stamp,
             window,
             checkpoints: OnceLock::new(),
-            prescan: utf8.map(|(scan, ..)| scan.finish()),
+            prescan: utf8.map_or_else(OnceLock::new, |(scan, ..)| OnceLock::from(scan.finish())),
         })
     }
 
@@ -150,7 +150,17 @@ impl ClFile {
     ) -> Result<(ProgramInfo, Vec<Diagnostic>), Error> {
         let windows =
             |each: &mut dyn FnMut(&Window, bool) -> usize| self.windows_from(Checkpoint::default(), self.window, each);
-        read_windows(windows, self.len, self.prescan, options, sink)
+        let prescan = match self.prescan.get() {
+            Some(&prescan) => prescan,
+            None => {
+                let mut scan = Prescanner::default();
+                self.windows_from(Checkpoint::default(), self.window, &mut |w, last| {
+                    scan.window(&w.text, w.base, last)
+                })?;
+                *self.prescan.get_or_init(|| scan.finish())
+            }
+        };
+        read_windows(windows, self.len, Some(prescan), options, sink)
     }
 
     /// Line and column of an offset of the text (1-based); reads about [`STRIDE`] bytes of the
@@ -311,9 +321,7 @@ impl ClFile {
             while whole < want && !eof {
                 if self.latin1 {
                     let n = file.read(&mut block).map_err(io)?;
-                    for &b in &block[..n] {
-                        text.extend_from_slice(char::from(b).encode_utf8(&mut [0; 4]).as_bytes());
-                    }
+                    push_latin1(&mut text, &block[..n]);
                     eof = n == 0;
                 } else {
                     text.reserve(read);
@@ -518,6 +526,25 @@ fn high_bytes(data: &[u8]) -> u64 {
     data.chunks(255).map(|run| u64::from(run.iter().fold(0u8, |n, &b| n + (b >> 7)))).sum()
 }
 
+/// Appends Latin-1 `bytes` to `text` as UTF-8: a byte from 0x80 up is the two bytes of its
+/// character (U+0080 to U+00FF), the runs of ASCII are copied as they are.
+fn push_latin1(text: &mut Vec<u8>, bytes: &[u8]) {
+    text.reserve(bytes.len() + high_bytes(bytes) as usize);
+    for run in bytes.chunks(64) {
+        if run.is_ascii() {
+            text.extend_from_slice(run);
+            continue;
+        }
+        for &b in run {
+            if b < 0x80 {
+                text.push(b);
+            } else {
+                text.extend_from_slice(&[0xC0 | (b >> 6), 0x80 | (b & 0x3F)]);
+            }
+        }
+    }
+}
+
 /// The line breaks in `text` (`\n`, `\r\n` and a lone `\r` each one).
 fn line_breaks(bytes: &[u8]) -> usize {
     let lone_cr = memchr::memchr_iter(b'\r', bytes).filter(|&k| bytes.get(k + 1) != Some(&b'\n')).count();
@@ -537,6 +564,15 @@ mod tests {
             assert_eq!(high_bytes(slice), expected, "{end} bytes");
         }
         assert_eq!(high_bytes(&[0xFF; 1000]), 1000);
+    }
+
+    #[test]
+    fn latin1_is_decoded_as_its_characters() {
+        let bytes: Vec<u8> = (0..=255u8).cycle().take(700).collect();
+        let mut text = b"x".to_vec();
+        push_latin1(&mut text, &bytes);
+        let expected: String = std::iter::once('x').chain(bytes.iter().map(|&b| char::from(b))).collect();
+        assert_eq!(text, expected.into_bytes());
     }
 
     #[test]
