@@ -71,49 +71,59 @@ impl ClFile {
         let mut file = std::fs::File::open(path).map_err(io)?;
         let stamp = stamp_of(&file).map_err(io)?;
         let (mut bytes, mut high) = (0u64, 0u64);
-        // While the text is UTF-8: the pre-scan, the lines not scanned yet (a record running
-        // past the lines read so far comes again) and their offset. Lines end at ASCII bytes,
-        // so whole lines never cut a UTF-8 sequence: checking them in turn checks the file.
-        let mut utf8 = Some((Prescanner::default(), Vec::<u8>::new(), 0usize));
+        let mut latin1 = false;
+        // While the text is known: the pre-scan, the text not scanned yet (a record running past
+        // the lines read so far comes again) and its offset. Lines end at ASCII bytes, so whole
+        // lines never cut a UTF-8 sequence: checking them in turn checks the file.
+        let mut scan = Some((Prescanner::default(), Vec::<u8>::new(), 0usize));
         let mut block = vec![0u8; read];
         loop {
             let n = file.read(&mut block).map_err(io)?;
             let data = &block[..n];
             bytes += n as u64;
             high += high_bytes(data);
-            if let Some((scan, text, base)) = utf8.as_mut() {
-                text.extend_from_slice(data);
-                let last = n == 0;
-                let whole = if last { text.len() } else { last_line_end(text) };
-                match std::str::from_utf8(&text[..whole]) {
-                    Ok(lines) => {
-                        let done = scan.window(lines, *base, last);
-                        *base += done;
-                        text.drain(..done);
+            let last = n == 0;
+            if let Some((scanner, text, base)) = scan.as_mut() {
+                if latin1 {
+                    push_latin1(text, data);
+                } else {
+                    text.extend_from_slice(data);
+                }
+                if !scan_lines(scanner, text, base, last) {
+                    latin1 = true;
+                    // Not UTF-8: Latin-1. While the lines scanned so far were ASCII, which reads
+                    // the same in both, the pre-scan goes on with the text decoded; else the
+                    // first reading does it.
+                    let raw = std::mem::take(text);
+                    if high_bytes(&raw) == high {
+                        push_latin1(text, &raw);
+                        // Decoded Latin-1 is UTF-8.
+                        let _ = scan_lines(scanner, text, base, last);
+                    } else {
+                        scan = None;
                     }
-                    Err(_) => utf8 = None,
                 }
             }
-            if n == 0 {
+            if last {
                 break;
             }
         }
         if bytes != stamp.0 {
             return Err(Error::Changed { path: name });
         }
-        let len = if utf8.is_some() { bytes } else { bytes + high };
+        let len = if latin1 { bytes + high } else { bytes };
         if len > Source::MAX_LEN as u64 {
             return Err(Error::TooLarge { path: name, size: len });
         }
         Ok(ClFile {
             path: path.to_path_buf(),
             name,
-            latin1: utf8.is_none(),
+            latin1,
             len: len as usize,
             stamp,
             window,
             checkpoints: OnceLock::new(),
-            prescan: utf8.map_or_else(OnceLock::new, |(scan, ..)| OnceLock::from(scan.finish())),
+            prescan: scan.map_or_else(OnceLock::new, |(scanner, ..)| OnceLock::from(scanner.finish())),
         })
     }
 
@@ -524,6 +534,17 @@ fn last_line_end(raw: &[u8]) -> usize {
 /// in byte counters over runs of 255, which the compiler makes vector code of.
 fn high_bytes(data: &[u8]) -> u64 {
     data.chunks(255).map(|run| u64::from(run.iter().fold(0u8, |n, &b| n + (b >> 7)))).sum()
+}
+
+/// Pre-scans the whole lines of `text` (all of it when `last`), at offset `base` of the text,
+/// and drops them from it; false, scanning nothing, if they are not UTF-8.
+fn scan_lines(scanner: &mut Prescanner, text: &mut Vec<u8>, base: &mut usize, last: bool) -> bool {
+    let whole = if last { text.len() } else { last_line_end(text) };
+    let Ok(lines) = std::str::from_utf8(&text[..whole]) else { return false };
+    let done = scanner.window(lines, *base, last);
+    *base += done;
+    text.drain(..done);
+    true
 }
 
 /// Appends Latin-1 `bytes` to `text` as UTF-8: a byte from 0x80 up is the two bytes of its

@@ -157,6 +157,18 @@ fn line_ends_encodings_and_long_records_cross_window_boundaries() {
     latin1.extend_from_slice(base.replace('\n', "\r\n").as_bytes());
     latin1.extend_from_slice(b"PPRINT/Schlu\xdfpr\xfcfung\r\n");
     cases.push(("latin1.cl", latin1));
+    // Latin-1 found late, after lines that read as UTF-8 (`Ã©` there, two characters): the
+    // pre-scan cannot go on from those lines as read at first.
+    let mut late = "PPRINT/caf\u{e9}\n".as_bytes().to_vec();
+    late.extend_from_slice(base.as_bytes());
+    late.extend_from_slice(b"PPRINT/Ma\xdfe\n");
+    late.extend_from_slice(base.as_bytes());
+    cases.push(("latin1-late.cl", late));
+    // Latin-1 found late, after ASCII lines only: the pre-scan goes on, decoding.
+    let mut ascii_first = base.as_bytes().to_vec();
+    ascii_first.extend_from_slice(b"PPRINT/Ma\xdfe\n");
+    ascii_first.extend_from_slice(base.as_bytes());
+    cases.push(("latin1-after-ascii.cl", ascii_first));
     for (name, bytes) in cases {
         let path = dir.join(name);
         std::fs::write(&path, bytes).expect("a scratch file");
