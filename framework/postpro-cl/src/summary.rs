@@ -217,11 +217,9 @@ impl ItemSink for Accumulator {
             ItemKind::Move(m) => self.straight(&m),
             ItemKind::Arc(a) => {
                 self.arcs += 1;
-                // One-degree steps: the box is within r·(1 − cos 0.5°) ≈ 4e-5·r of the arc's.
-                let steps = (a.sweep.to_degrees().ceil() as u32).clamp(1, 360 * 1000);
-                for k in 1..=steps {
-                    self.extend(a.point_at(f64::from(k) / f64::from(steps)));
-                }
+                let (lo, hi) = a.bounds();
+                self.extend(lo);
+                self.extend(hi);
                 self.motion(a.motion, a.length(), a.axis);
                 self.position = Some(a.end);
             }
