@@ -487,6 +487,9 @@ impl Arc {
     }
 }
 
+/// The highest degree of a NURBS the reader takes.
+pub const MAX_NURBS_DEGREE: usize = 9;
+
 /// A NURBS curve, clamped at both ends: it starts at the current point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Nurbs {
@@ -503,18 +506,28 @@ pub struct Nurbs {
 }
 
 impl Nurbs {
-    /// The point at parameter `u` (de Boor).
+    /// The point at parameter `u` (de Boor): O(log n + degree²), without allocating up to the
+    /// highest degree the reader takes.
     pub fn point_at(&self, u: f64) -> Point3<f64> {
         let p = self.degree;
         let n = self.control.len();
         let lo = self.knots[p];
         let hi = self.knots[n];
         let u = u.clamp(lo, hi);
-        let mut k = p;
-        while k + 1 < n && self.knots[k + 1] <= u {
-            k += 1;
+        // The span of `u`: the last `k` below `n` with `knots[k] <= u` (the knots never
+        // decrease: the reader checks it).
+        let k = p + self.knots[p + 1..n].partition_point(|&x| x <= u);
+        let mut stack = [Vector3::zeros(); MAX_NURBS_DEGREE + 1];
+        let mut heap = Vec::new();
+        let d: &mut [Vector3<f64>] = if p <= MAX_NURBS_DEGREE {
+            &mut stack[..=p]
+        } else {
+            heap.resize(p + 1, Vector3::zeros());
+            &mut heap
+        };
+        for (j, d) in d.iter_mut().enumerate() {
+            *d = self.control[j + k - p].coords;
         }
-        let mut d: Vec<Vector3<f64>> = (0..=p).map(|j| self.control[j + k - p].coords).collect();
         for r in 1..=p {
             for j in (r..=p).rev() {
                 let i = j + k - p;
@@ -743,6 +756,56 @@ pub struct Record {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// De Boor with the span searched one knot at a time, each evaluation in a fresh vector.
+    fn point_at_by_walking(c: &Nurbs, u: f64) -> Point3<f64> {
+        let (p, n) = (c.degree, c.control.len());
+        let u = u.clamp(c.knots[p], c.knots[n]);
+        let mut k = p;
+        while k + 1 < n && c.knots[k + 1] <= u {
+            k += 1;
+        }
+        let mut d: Vec<Vector3<f64>> = (0..=p).map(|j| c.control[j + k - p].coords).collect();
+        for r in 1..=p {
+            for j in (r..=p).rev() {
+                let i = j + k - p;
+                let den = c.knots[i + p + 1 - r] - c.knots[i];
+                let a = if den > 0.0 { (u - c.knots[i]) / den } else { 0.0 };
+                d[j] = d[j - 1] * (1.0 - a) + d[j] * a;
+            }
+        }
+        Point3::from(d[p])
+    }
+
+    proptest::proptest! {
+        /// The span found by bisection is the one a walk finds, at the knots themselves (repeated
+        /// ones too), between them and outside the domain: the same points, bit for bit.
+        #[test]
+        fn a_nurbs_point_is_found_in_its_span(
+            degree in 1..=MAX_NURBS_DEGREE,
+            extra in 0..30_usize,
+            steps in proptest::collection::vec(proptest::prop_oneof![proptest::strategy::Just(0.0), 0.0..2.0_f64], 40),
+            coords in proptest::collection::vec(-100.0..100.0_f64, 3 * 40),
+            at in proptest::collection::vec(-0.2..1.2_f64, 20),
+        ) {
+            let n = degree + 1 + extra;
+            let control: Vec<Point3<f64>> = (0..n).map(|i| Point3::new(coords[3 * i], coords[3 * i + 1], coords[3 * i + 2])).collect();
+            // Clamped: degree + 1 equal knots at each end, steps (some of them 0) in between.
+            let mut knots = vec![0.0; degree + 1];
+            let mut x = 0.0;
+            for step in steps.iter().take(n - degree - 1) {
+                x += step;
+                knots.push(x);
+            }
+            let end = x + 1.0;
+            knots.extend(std::iter::repeat_n(end, degree + 1));
+            let curve = Nurbs { degree, knots: knots.clone(), control, axis: Vector3::z_axis(), motion: Motion::Unset };
+            let us = at.iter().map(|t| t * end).chain(knots.iter().copied());
+            for u in us {
+                proptest::prop_assert_eq!(curve.point_at(u), point_at_by_walking(&curve, u), "u = {}", u);
+            }
+        }
+    }
 
     proptest::proptest! {
         /// The box of an arc or helix, of any sweep up to three turns, holds every point of it

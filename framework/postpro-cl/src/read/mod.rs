@@ -900,7 +900,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         // NX writes the knots after the leading `degree + 1` zeros and before the last `degree`
         // ones: full = [0; p+1] ++ given ++ [end; p], so p = controls − given.
         let given = n.knots.len();
-        let degree = count.checked_sub(given).filter(|p| (1..=9).contains(p));
+        let degree = count.checked_sub(given).filter(|p| (1..=MAX_NURBS_DEGREE).contains(p));
         let sorted = n.knots.windows(2).all(|w| w[0] <= w[1]) && n.knots.iter().all(|k| k.is_finite());
         let (Some(degree), true, Some(&last)) = (degree, sorted, n.knots.last()) else {
             self.diag(Diagnostic::new(Severity::Error, "cl::nurbs", n.span, format!("NURBS with {count} control points and {given} knots"), "expected the NX form: n control points (start point included) and n − degree knots, non-decreasing"
