@@ -393,8 +393,10 @@ pub struct Stepper {
     /// What the last step tried needs the track to hold before it can be decided: nothing
     /// changes until then, so the steps are not tried again (a scan ahead may be long).
     waiting: Option<Need>,
-    /// Enough for any motion: a run away loop would be a bug; stop it rather than hang.
-    guard: u64,
+    /// The steps taken on the current piece (`.1`; a cruise taken in one go is one): far more
+    /// than any motion takes ([`STEPS_PER_PIECE`]) is a loop that runs away, a bug; it is
+    /// stopped rather than let hang.
+    guard: (usize, u64),
 }
 
 /// The state after `h` at constant jerk `j`.
@@ -422,7 +424,7 @@ impl Stepper {
             started: false,
             done: false,
             waiting: None,
-            guard: 0,
+            guard: (0, 0),
         }
     }
 
@@ -514,7 +516,7 @@ impl Stepper {
                 let cap = track.pieces[self.k];
                 self.t += n as f64 * self.h;
                 self.u += n as f64 * self.v * self.h;
-                self.guard += n;
+                self.count_step();
                 tally!(STEPS);
                 let limit = cap.velocity_limit;
                 let sample = Sample {
@@ -536,7 +538,7 @@ impl Stepper {
             let n = track.complete.then(|| track.len());
             let Some((j, limit, ahead)) = self.choose(track) else { return Progress::Waiting };
             tally!(STEPS);
-            self.guard += 1;
+            self.count_step();
             let piece = track.pieces[self.k];
             let piece_was = self.k;
             if self.known[self.k].cap <= 0.0
@@ -593,7 +595,8 @@ impl Stepper {
                 self.t += track.junctions[self.k - 1].dwell;
                 continue;
             }
-            if v1 < 0.0 || (v1 == 0.0 && a1 <= 0.0) || self.guard > 200_000_000 {
+            let runaway = self.guard.1 > STEPS_PER_PIECE;
+            if v1 < 0.0 || (v1 == 0.0 && a1 <= 0.0) || runaway {
                 // The speed reaches 0 within this step.
                 let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
                 let (u_rest, _, _) = advance(self.u, self.v, self.a, j, tau);
@@ -604,7 +607,7 @@ impl Stepper {
                 self.t += tau;
                 self.v = 0.0;
                 self.a = 0.0;
-                if rest > 10.0 * piece.jerk * self.h.powi(3) && self.guard <= 200_000_000 {
+                if rest > 10.0 * piece.jerk * self.h.powi(3) && !runaway {
                     // Stopped short of a look-ahead window's end: start again from rest.
                     self.u = u_rest;
                     observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
@@ -666,6 +669,14 @@ impl Stepper {
             };
             observer.sample(&sample);
         }
+    }
+
+    /// Counts a step on the current piece ([`Self::guard`]).
+    fn count_step(&mut self) {
+        if self.guard.0 != self.k {
+            self.guard = (self.k, 0);
+        }
+        self.guard.1 += 1;
     }
 
     /// The periods of a cruise the next steps would take one at a time with nothing to decide (at
@@ -942,6 +953,10 @@ impl Stepper {
         Some((j, limit, ahead))
     }
 }
+
+/// Far more steps on one piece than any motion takes (a cruise taken in one go counts once):
+/// 100 M periods of 1 ms stepped one by one are more than a day in one block.
+const STEPS_PER_PIECE: u64 = 100_000_000;
 
 /// What the track must hold before a step can be decided.
 #[derive(Clone, Copy, Debug)]
@@ -1237,6 +1252,34 @@ mod tests {
         let mut r = Record(Vec::new());
         let t = run(&track, h, &mut r);
         (t, r.0)
+    }
+
+    /// A program of a fortnight at 3 ms (400 M periods, 4 000 blocks of 5 min each, crossed at
+    /// speed): the motion is timed whole, not cut short once it has run for a given number of
+    /// periods.
+    #[test]
+    fn a_program_of_many_days_is_timed_whole() {
+        /// Takes the cruises in one go and keeps the last sample only.
+        struct Last(Option<Sample>);
+        impl Observer for Last {
+            fn sample(&mut self, sample: &Sample) {
+                self.0 = Some(*sample);
+            }
+            fn crossing(&mut self, _: usize, _: f64, _: f64, _: Limit) {}
+            fn every_period(&self) -> bool {
+                false
+            }
+        }
+        let (n, length, v, a, j, h) = (4000, 0.3, 0.001, 0.01, 0.1, 0.003);
+        let mut junctions = vec![Junction { cap: f64::INFINITY, limit: Limit::Corner, dwell: 0.0 }; n];
+        junctions[n - 1] = Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 };
+        let track = Track::new(vec![piece(length, v, a, j); n], junctions, usize::MAX, 0.0);
+        let mut last = Last(None);
+        let t = run(&track, h, &mut last);
+        let exact = Profile::rest_to_rest(n as f64 * length, v, a, j).duration();
+        assert!(exact / h > 4e8, "{} periods", exact / h);
+        assert!((t - exact).abs() < 1e-6 * exact, "{t} s against {exact} s");
+        assert!(last.0.is_some_and(|s| (s.u - n as f64 * length).abs() < 1e-6), "{:?}", last.0);
     }
 
     #[test]
