@@ -233,6 +233,7 @@ impl<'k> Predictor<'k> {
             length_below: self.collector.length_below,
             threshold: self.options.threshold,
             samples: self.collector.count,
+            abandoned: self.stepper.abandoned(),
         }
     }
 

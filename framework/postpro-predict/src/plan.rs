@@ -393,10 +393,13 @@ pub struct Stepper {
     /// What the last step tried needs the track to hold before it can be decided: nothing
     /// changes until then, so the steps are not tried again (a scan ahead may be long).
     waiting: Option<Need>,
-    /// The steps taken on the current piece (`.1`; a cruise taken in one go is one): far more
-    /// than any motion takes ([`STEPS_PER_PIECE`]) is a loop that runs away, a bug; it is
-    /// stopped rather than let hang.
+    /// The steps taken on the current piece (`.1`; a cruise taken in one go is one): more than
+    /// `steps_per_piece` ([`STEPS_PER_PIECE`]), far more than any motion takes, is a loop that
+    /// runs away, a bug: the piece is ended at once rather than let hang, and counted in
+    /// `abandoned`.
     guard: (usize, u64),
+    steps_per_piece: u64,
+    abandoned: u64,
 }
 
 /// The state after `h` at constant jerk `j`.
@@ -425,7 +428,15 @@ impl Stepper {
             done: false,
             waiting: None,
             guard: (0, 0),
+            steps_per_piece: STEPS_PER_PIECE,
+            abandoned: 0,
         }
+    }
+
+    /// The pieces the stepper gave up on and ended at once: a loop that did not end, a bug. Their
+    /// times are not the machine's.
+    pub fn abandoned(&self) -> u64 {
+        self.abandoned
     }
 
     /// The piece the motion is on: the pieces before it are no longer needed.
@@ -595,7 +606,7 @@ impl Stepper {
                 self.t += track.junctions[self.k - 1].dwell;
                 continue;
             }
-            let runaway = self.guard.1 > STEPS_PER_PIECE;
+            let runaway = self.guard.1 > self.steps_per_piece;
             if v1 < 0.0 || (v1 == 0.0 && a1 <= 0.0) || runaway {
                 // The speed reaches 0 within this step.
                 let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
@@ -607,7 +618,9 @@ impl Stepper {
                 self.t += tau;
                 self.v = 0.0;
                 self.a = 0.0;
-                if rest > 10.0 * piece.jerk * self.h.powi(3) && !runaway {
+                if runaway {
+                    self.abandoned += 1;
+                } else if rest > 10.0 * piece.jerk * self.h.powi(3) {
                     // Stopped short of a look-ahead window's end: start again from rest.
                     self.u = u_rest;
                     observer.sample(&Sample::at_rest(self.t, self.u, j, self.k, limit, ahead));
@@ -1280,6 +1293,27 @@ mod tests {
         assert!(exact / h > 4e8, "{} periods", exact / h);
         assert!((t - exact).abs() < 1e-6 * exact, "{t} s against {exact} s");
         assert!(last.0.is_some_and(|s| (s.u - n as f64 * length).abs() < 1e-6), "{:?}", last.0);
+    }
+
+    /// A piece that takes more steps than the guard allows (here lowered to 1 000; 10 000
+    /// periods taken one by one) is ended at once and counted, not stepped for ever; at the
+    /// guard's own bound it is timed.
+    #[test]
+    fn a_piece_the_stepper_gives_up_on_is_counted() {
+        let h = 0.003;
+        let (d, v, a, j) = (30.0, 1.0, 100.0, 1000.0);
+        let track = || {
+            Track::new(vec![piece(d, v, a, j)], vec![Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 }], 10, 0.0)
+        };
+        let exact = Profile::rest_to_rest(d, v, a, j).duration();
+        let mut stepper = Stepper::new(h);
+        stepper.go(&track(), &mut Record(Vec::new()));
+        assert_eq!(stepper.abandoned(), 0);
+        assert!((stepper.time(&track()) - exact).abs() < 1e-3 * exact);
+        let mut stepper = Stepper { steps_per_piece: 1000, ..Stepper::new(h) };
+        assert_eq!(stepper.go(&track(), &mut Record(Vec::new())), Progress::Done);
+        assert_eq!(stepper.abandoned(), 1);
+        assert!(stepper.time(&track()) < 0.5 * exact);
     }
 
     #[test]

@@ -141,6 +141,9 @@ pub struct Totals {
     pub threshold: f64,
     /// Interpolation steps computed.
     pub samples: u64,
+    /// Pieces of the path the interpolator gave up on, ended at once: a loop that did not end,
+    /// a bug; the times of their blocks are not the machine's.
+    pub abandoned: u64,
 }
 
 impl Totals {
@@ -256,6 +259,7 @@ impl Prediction {
             length_below: 0.0,
             threshold: 0.0,
             samples: 0,
+            abandoned: 0,
         })
     }
 

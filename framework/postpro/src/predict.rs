@@ -334,6 +334,7 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     if args.timing {
         print_timing(prediction.blocks.len(), prediction.totals().samples, started.elapsed().as_secs_f64());
     }
+    warn_if_abandoned(&prediction.totals());
     let machine = &job.machine;
     let marks = prediction.marks(&args.marks.rules(&args.prediction));
     let run = Run { prediction: &prediction, marks: &marks, machine, job: &job, args, planner };
@@ -408,6 +409,7 @@ fn streamed(
     if args.timing {
         print_timing(s.blocks, s.prediction.totals().samples, s.seconds);
     }
+    warn_if_abandoned(&s.prediction.totals());
     let figures = Figures {
         name: &s.name,
         machine: &s.machine,
@@ -422,6 +424,18 @@ fn streamed(
         every_block: None,
     };
     report::print_stdout(&table(&figures))
+}
+
+/// Says on standard error that the interpolator gave up on pieces of the path, if it did: a
+/// loop that did not end is a bug, and the times there are not the machine's.
+pub(crate) fn warn_if_abandoned(totals: &postpro_predict::Totals) {
+    if totals.abandoned > 0 {
+        eprintln!(
+            "warning: the prediction gave up on {} piece(s) of the path, where its interpolator did not come to an end \
+             (a bug in postpro): the predicted times there are not the machine's; please report it with the CL file",
+            totals.abandoned
+        );
+    }
 }
 
 /// `--timing`: the prediction's throughput, on standard error.

@@ -506,6 +506,7 @@ impl Passes<'_> {
                     for note in &p.blocks.notes {
                         eprintln!("note: {}: prediction: {}", file.location(note.span.start as usize), note.text);
                     }
+                    crate::predict::warn_if_abandoned(&p.predictor.totals());
                 });
                 let marks = p.marks.finish();
                 let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
