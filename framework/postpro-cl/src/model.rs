@@ -525,6 +525,12 @@ impl Nurbs {
             heap.resize(p + 1, Vector3::zeros());
             &mut heap
         };
+        self.de_boor(k, u, d)
+    }
+
+    /// De Boor's triangle at `u` in span `k`, in `d` (`degree + 1` points).
+    fn de_boor(&self, k: usize, u: f64, d: &mut [Vector3<f64>]) -> Point3<f64> {
+        let p = self.degree;
         for (j, d) in d.iter_mut().enumerate() {
             *d = self.control[j + k - p].coords;
         }
@@ -757,7 +763,7 @@ pub struct Record {
 mod tests {
     use super::*;
 
-    /// De Boor with the span searched one knot at a time, each evaluation in a fresh vector.
+    /// De Boor with the span searched one knot at a time, in a fresh vector.
     fn point_at_by_walking(c: &Nurbs, u: f64) -> Point3<f64> {
         let (p, n) = (c.degree, c.control.len());
         let u = u.clamp(c.knots[p], c.knots[n]);
@@ -765,16 +771,7 @@ mod tests {
         while k + 1 < n && c.knots[k + 1] <= u {
             k += 1;
         }
-        let mut d: Vec<Vector3<f64>> = (0..=p).map(|j| c.control[j + k - p].coords).collect();
-        for r in 1..=p {
-            for j in (r..=p).rev() {
-                let i = j + k - p;
-                let den = c.knots[i + p + 1 - r] - c.knots[i];
-                let a = if den > 0.0 { (u - c.knots[i]) / den } else { 0.0 };
-                d[j] = d[j - 1] * (1.0 - a) + d[j] * a;
-            }
-        }
-        Point3::from(d[p])
+        c.de_boor(k, u, &mut vec![Vector3::zeros(); p + 1])
     }
 
     proptest::proptest! {
