@@ -299,7 +299,6 @@ pub(crate) fn write_job(job: &crate::job::Job, how: &Writing<'_>, stage: &dyn Fn
         Some((args, marking)) => {
             stage("predicting the feed");
             let predicted = predict::run(job, &program, args, false);
-            predict::warn_if_abandoned(&predicted.totals());
             for note in &predicted.notes {
                 let at = job.solved.steps[note.step].span.start as usize;
                 eprintln!("note: {}: prediction: {}", source.location(at), note.text);

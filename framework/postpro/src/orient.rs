@@ -139,7 +139,6 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
         Err(code) => return code,
     };
     let original_prediction = predict::run(&job, &original_program, &args.prediction, false);
-    predict::warn_if_abandoned(&original_prediction.totals());
     let original_cycle = original_prediction.totals().cycle_time;
 
     // Per path: the program's tool axis, the set-up it was solved in, and the best candidate:
@@ -210,7 +209,6 @@ pub(crate) fn run(args: &OrientArgs) -> ExitCode {
             .map_err(|e| format!("the re-oriented program does not solve: {e}"))?;
         let prediction = predict::run_solved(&applied.path, &solved, kin, mode, &args.prediction)
             .map_err(|e| format!("the re-oriented program cannot be written: {e}"))?;
-        predict::warn_if_abandoned(&prediction.totals());
         let path_times = path_times(&prediction, &solved, &spans);
         Ok(Variant { path: applied.path.clone(), solved, cycle: prediction.totals().cycle_time, path_times, applied })
     };

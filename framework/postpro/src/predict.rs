@@ -178,6 +178,8 @@ fn options(
     postpro_predict::Options { planner, threshold, samples, period, splines: mode == Mode::Bspline }
 }
 
+/// The prediction of `program` (every in-memory one comes here; a piece the interpolator gave up
+/// on is said on standard error, as the streamed passes say it).
 fn predict_program(
     program: &postpro_motion::Program,
     kin: &dyn postpro_kin::Kinematics,
@@ -185,7 +187,9 @@ fn predict_program(
 ) -> Prediction {
     let timing = if program.mode.feeds_the_tip() { Timing::TipFeed } else { Timing::AxisFeed };
     let blocks = postpro_predict::blocks(program, kin.machine(), timing);
-    postpro_predict::predict(&blocks, kin, options)
+    let prediction = postpro_predict::predict(&blocks, kin, options);
+    warn_if_abandoned(&prediction.totals());
+    prediction
 }
 
 /// The prediction of another solved tool path of the same machine (a re-oriented program).
@@ -334,7 +338,6 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     if args.timing {
         print_timing(prediction.blocks.len(), prediction.totals().samples, started.elapsed().as_secs_f64());
     }
-    warn_if_abandoned(&prediction.totals());
     let machine = &job.machine;
     let marks = prediction.marks(&args.marks.rules(&args.prediction));
     let run = Run { prediction: &prediction, marks: &marks, machine, job: &job, args, planner };
@@ -409,7 +412,6 @@ fn streamed(
     if args.timing {
         print_timing(s.blocks, s.prediction.totals().samples, s.seconds);
     }
-    warn_if_abandoned(&s.prediction.totals());
     let figures = Figures {
         name: &s.name,
         machine: &s.machine,

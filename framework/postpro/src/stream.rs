@@ -897,6 +897,7 @@ impl<'a> Passes<'a> {
         p.take(done);
         let seconds = started.elapsed().as_secs_f64();
         progress.finish();
+        crate::predict::warn_if_abandoned(&p.predictor.totals());
         let strict = self.how.setup.strict;
         let warnings = warn_all(file, passed.summary.warnings.iter().chain(&travel), strict);
         if strict && warnings > 0 {
