@@ -13,7 +13,7 @@ use std::time::SystemTime;
 
 use crate::diagnostic::Excerpt;
 use crate::read::prescan::{Prescan, Prescanner};
-use crate::read::{ItemSink, ReadOptions, Window, read_windows};
+use crate::read::{ItemSink, ReadOptions, Window, prescan_windows, read_windows};
 use crate::span::{LineCol, Locate, Source, Span};
 use crate::{Diagnostic, Error, ProgramInfo};
 
@@ -158,16 +158,13 @@ impl ClFile {
         options: &ReadOptions,
         sink: &mut impl ItemSink,
     ) -> Result<(ProgramInfo, Vec<Diagnostic>), Error> {
-        let windows =
+        let mut windows =
             |each: &mut dyn FnMut(&Window, bool) -> usize| self.windows_from(Checkpoint::default(), self.window, each);
         let prescan = match self.prescan.get() {
             Some(&prescan) => prescan,
             None => {
-                let mut scan = Prescanner::default();
-                self.windows_from(Checkpoint::default(), self.window, &mut |w, last| {
-                    scan.window(&w.text, w.base, last)
-                })?;
-                *self.prescan.get_or_init(|| scan.finish())
+                let prescan = prescan_windows(&mut windows)?;
+                *self.prescan.get_or_init(|| prescan)
             }
         };
         read_windows(windows, self.len, Some(prescan), options, sink)

@@ -112,11 +112,7 @@ pub(crate) fn read_windows<E>(
 ) -> Result<(ProgramInfo, Vec<Diagnostic>), E> {
     let pre = match pre {
         Some(pre) => pre,
-        None => {
-            let mut scan = prescan::Prescanner::default();
-            windows(&mut |w, last| scan.window(&w.text, w.base, last))?;
-            scan.finish()
-        }
+        None => prescan_windows(&mut windows)?,
     };
     let known = match options.arc_sense {
         Some(s) => Some(SensePlan::Known(s, ArcSenseOrigin::Option)),
@@ -136,6 +132,15 @@ pub(crate) fn read_windows<E>(
     windows(&mut |w, last| reading.window(w, last))?;
     let (info, diagnostics, _) = reading.b.finish(len);
     Ok((info, diagnostics))
+}
+
+/// The pre-scan of a text that `windows` hands over in windows (see [`read_windows`]).
+pub(crate) fn prescan_windows<E>(
+    windows: &mut impl FnMut(&mut dyn FnMut(&Window, bool) -> usize) -> Result<(), E>,
+) -> Result<Prescan, E> {
+    let mut scan = prescan::Prescanner::default();
+    windows(&mut |w, last| scan.window(&w.text, w.base, last))?;
+    Ok(scan.finish())
 }
 
 /// A window of the text: its offset in the whole and the line breaks before it.
