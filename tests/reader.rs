@@ -565,20 +565,24 @@ fn nx_msys_change_between_operations() {
     assert_eq!(ops, 2);
 }
 
-/// FROM is the start point (not a move); GODLTA moves by a vector, or along the tool axis.
+/// FROM before any tool change or move is the start point, not a move (no tool is known to move
+/// yet): it is counted, and gives the position GODLTA moves from. GODLTA moves by a vector, or
+/// along the tool axis. A FROM after a move is a move.
 #[test]
 fn godlta_and_from() {
     let path = read_clean("ok_godlta_from.cl");
+    let from = path.info.start_points.expect("the start point is counted");
+    assert_eq!(from.count, 1);
+    assert_eq!(case_source("ok_godlta_from.cl").location(from.first.start as usize), "tests/cl/ok_godlta_from.cl:3:1");
     let m = moves(&path);
-    assert_eq!(m[0].kind, MoveKind::From);
-    assert_near(xyz(&m[0].to), [0.0, 0.0, 100.0], 1e-12);
-    let rest: Vec<([f64; 3], MoveKind)> = m[1..].iter().map(|m| (xyz(&m.to), m.kind)).collect();
+    let rest: Vec<([f64; 3], MoveKind)> = m.iter().map(|m| (xyz(&m.to), m.kind)).collect();
     let expected = [
         ([10.0, 20.0, 30.0], MoveKind::Goto),
         ([10.0, 20.0, 35.0], MoveKind::Godlta),
         ([10.0, 20.0, 30.0], MoveKind::Godlta),
         ([10.0, 20.0, 30.0], MoveKind::Goto),
         ([10.0, 22.0, 30.0], MoveKind::Godlta),
+        ([10.0, 22.0, 60.0], MoveKind::From),
     ];
     assert_eq!(rest.len(), expected.len());
     for ((p, k), (ep, ek)) in rest.iter().zip(expected) {
@@ -592,6 +596,7 @@ fn godlta_and_from() {
 fn catia_wrap_inside_a_number() {
     let path = read_clean("ok_catia_column_wrap.cl");
     let m = moves(&path);
+    // After the tool change the FROM is a move.
     assert_eq!(m[0].kind, MoveKind::From);
     assert_near(xyz(&*m[0].axis), [0.0, 0.0, 1.0], 1e-12);
     let raw = [-0.655944, 0.057682, 0.752602];

@@ -67,6 +67,10 @@ pub struct ProgramInfo {
     pub uninterpreted: BTreeMap<String, WordUse>,
     /// Lines that are not APT (NX listing header and footer).
     pub listing_lines: usize,
+    /// `FROM` statements before the first tool change and the first move: where the tool starts,
+    /// read for the position and the tool axis but not a move (no tool is known to move yet,
+    /// and the machine moves to the first position after the tool change anyway).
+    pub start_points: Option<Occurrences>,
     /// Statements read.
     pub statements: usize,
     /// The file is an APT part program (source language), not CL data.
@@ -74,6 +78,15 @@ pub struct ProgramInfo {
     /// The sense applied to CIRCLE and MOVARC arcs, where it came from, and how it agreed with
     /// the moves tangent to the arcs.
     pub arc_sense: ArcSenseInfo,
+}
+
+/// How often something occurs and where first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Occurrences {
+    /// How many.
+    pub count: usize,
+    /// The first.
+    pub first: Span,
 }
 
 /// How often a word occurs and where first.

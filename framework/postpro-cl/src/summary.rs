@@ -61,6 +61,9 @@ pub struct Summary {
     pub errors: usize,
     /// Non-APT listing lines skipped (NX Information window).
     pub listing_lines: usize,
+    /// `FROM` statements before any tool change or move: the tool's start point, not a move
+    /// ([`ProgramInfo::start_points`](crate::ProgramInfo::start_points)).
+    pub start_points: usize,
 }
 
 /// Units.
@@ -417,6 +420,7 @@ impl Accumulator {
             warnings,
             errors: diagnostics.iter().filter(|d| d.is_error()).count(),
             listing_lines: info.listing_lines,
+            start_points: info.start_points.map_or(0, |s| s.count),
         }
     }
 }

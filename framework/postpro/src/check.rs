@@ -99,6 +99,9 @@ fn table(s: &Summary) -> String {
         "moves           {} ({} feed, {} rapid, {} holes), {} arcs, {} NURBS",
         m.total, m.feed, m.rapid, m.holes, s.arcs, s.nurbs
     );
+    if s.start_points > 0 {
+        let _ = writeln!(t, "start point     FROM ×{} before any tool change or move: not a move", s.start_points);
+    }
     let _ = writeln!(t, "statements      {}, {} operations, {} frame changes", s.statements, s.operations, s.frames);
     let tools: Vec<String> = s
         .tools

@@ -106,6 +106,13 @@ pub(crate) fn report_reading(
     if notes && !passive.is_empty() {
         eprintln!("note: known words without effect on the path, passed over: {}", passive.join(", "));
     }
+    if notes && let Some(from) = info.start_points {
+        eprintln!(
+            "note: FROM before any tool change or move, read as the tool's start point, not a move: ×{} (first at {})",
+            from.count,
+            source.location(from.first.start as usize)
+        );
+    }
     if notes && info.listing_lines > 0 {
         eprintln!("note: {} lines of the file are not APT (a listing's header and footer)", info.listing_lines);
     }

@@ -81,6 +81,7 @@ fn check_json_has_the_stable_keys() {
             "warnings",
             "errors",
             "listing_lines",
+            "start_points",
         ])
     );
     assert_eq!(keys(&json["units"]), expected(&["file", "origin", "at"]));

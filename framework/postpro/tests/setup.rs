@@ -287,3 +287,27 @@ fn a_cl_without_spindle_or_coolant_gets_a_warning() {
         );
     }
 }
+
+/// A FROM before any tool change or move (CATIA and Makino FFCAM write one: where the tool
+/// starts) is not a move: the program neither loads a tool the CL file does not name (an assumed
+/// T1 with its length offset) nor moves to that point; it is the program the CL file gives
+/// without it, and a note says what became of it.
+#[test]
+fn a_from_before_the_first_tool_change_is_the_start_point_not_a_move() {
+    let part = std::fs::read_to_string(jobs().join("part.cl")).expect("part.cl");
+    let with_from = part.replacen("LOADTL/1", "FROM/0,0,250,0,0,1\nLOADTL/1", 1);
+    let run = |name: &str, text: &str| {
+        let dir = out_dir(&format!("from_{name}"));
+        std::fs::write(dir.join("part.cl"), text).expect("the CL file");
+        let o = postpro(&["--machine", "maho600e", "part.cl", "-o", "-", "--no-predict"], &dir);
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
+        (String::from_utf8(o.stdout.clone()).expect("UTF-8"), stderr(&o))
+    };
+    let (without, _) = run("without", &part);
+    let (with, said) = run("with", &with_from);
+    assert_eq!(with, without);
+    let note = "note: FROM before any tool change or move, read as the tool's start point, not a move: ×1 \
+                (first at part.cl:3:1)";
+    assert!(said.lines().any(|l| l == note), "{said}");
+    assert!(!said.contains("loads no tool"), "{said}");
+}

@@ -257,6 +257,8 @@ struct Builder<'s, S> {
     first_apt_source: Option<Span>,
     /// A lathe statement was reported (once per file).
     turning_reported: bool,
+    /// A tool change or a move was emitted: a `FROM` is no longer the start point.
+    started: bool,
 }
 
 impl<'s, S: ItemSink> Builder<'s, S> {
@@ -301,6 +303,7 @@ impl<'s, S: ItemSink> Builder<'s, S> {
             apt_source_statements: 0,
             first_apt_source: None,
             turning_reported: false,
+            started: false,
         };
         b.info.cam_system = pre.cam;
         b.info.units = match options.cl_units {
@@ -345,6 +348,8 @@ impl<'s, S: ItemSink> Builder<'s, S> {
     }
 
     fn emit(&mut self, span: Span, kind: ItemKind) {
+        self.started |=
+            matches!(kind, ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_) | ItemKind::ToolChange(_));
         self.sink.push(Item { span, kind });
     }
 
@@ -732,6 +737,12 @@ impl<'s, S: ItemSink> Builder<'s, S> {
         self.arc_arrival(None);
         self.arrival = None;
         self.position = Some(to);
+        if !self.started {
+            // Before any tool change and any move: where the tool starts, not a move to write.
+            let span = cx.rec.span;
+            self.info.start_points.get_or_insert(Occurrences { count: 0, first: span }).count += 1;
+            return;
+        }
         self.emit(
             cx.rec.span,
             ItemKind::Move(Move { to, axis: self.axis, motion: Motion::Rapid, kind: MoveKind::From }),
