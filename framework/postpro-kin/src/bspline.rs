@@ -99,7 +99,7 @@ impl Spline {
 
     /// A cursor for many evaluations, each searching its span from the last one's.
     pub fn cursor(&self) -> Cursor<'_> {
-        Cursor { spline: self, span: DEGREE }
+        Cursor { spline: self, span: DEGREE, taylor: None }
     }
 
     /// The joint values at parameter `u` (de Boor), `u` clamped to the domain; O(log n). Many
@@ -118,12 +118,16 @@ impl Spline {
 
 /// Evaluates a spline at parameters one after the other, searching each span from the last one
 /// found (galloping, then bisection): O(1) per evaluation at increasing or nearby parameters,
-/// O(log n) for a jump across n spans. The values are those of [`Spline::at`] and
-/// [`Spline::derivatives`].
+/// O(log n) for a jump across n spans. The values are those of [`Spline::at`] (de Boor) and
+/// [`Spline::derivatives`] (each span's cubic in Taylor form about its first knot, computed once
+/// per span: the basis functions' derivatives once, not at every parameter).
 #[derive(Clone, Debug)]
 pub struct Cursor<'a> {
     spline: &'a Spline,
     span: usize,
+    /// The span whose polynomial [`Self::derivatives`] last took, and its Taylor coefficients
+    /// about the span's first knot (the derivatives there, divided by their factorials).
+    taylor: Option<(usize, [[f64; MAX_AXES]; DEGREE + 1])>,
 }
 
 impl Cursor<'_> {
@@ -133,20 +137,29 @@ impl Cursor<'_> {
         de_boor(self.spline, span, u)
     }
 
-    /// The joint values and their first three derivatives at `u`, `u` clamped to the domain.
+    /// The joint values and their first three derivatives at `u`, `u` clamped to the domain:
+    /// the span's cubic, in Taylor form about its first knot, computed once per span.
     pub fn derivatives(&mut self, u: f64) -> [Joints; DEGREE + 1] {
         let (u, span) = self.locate(u);
         let spline = self.spline;
-        let ders = basis_derivatives(&spline.knots, span, u);
+        let start = spline.knots[span];
+        let c = match self.taylor {
+            Some((cached, c)) if cached == span => c,
+            _ => {
+                let c = taylor(spline, span, start);
+                self.taylor = Some((span, c));
+                c
+            }
+        };
+        let t = u - start;
         let axes = spline.control[0].len();
         let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
-        for (k, row) in ders.iter().enumerate() {
-            for (j, b) in row.iter().enumerate() {
-                let c = spline.control[span - DEGREE + j].array();
-                for (o, c) in out[k].iter_mut().zip(c) {
-                    *o += b * c;
-                }
-            }
+        for a in 0..axes {
+            let [c0, c1, c2, c3] = [c[0][a], c[1][a], c[2][a], c[3][a]];
+            out[0][a] = c0 + t * (c1 + t * (c2 + t * c3));
+            out[1][a] = c1 + t * (2.0 * c2 + t * 3.0 * c3);
+            out[2][a] = 2.0 * c2 + t * 6.0 * c3;
+            out[3][a] = 6.0 * c3;
         }
         out.map(|values| Joints::from_array(values, axes))
     }
@@ -233,6 +246,26 @@ fn de_boor(spline: &Spline, k: usize, u: f64) -> Joints {
         }
     }
     Joints::from_array(d[DEGREE], spline.control[0].len())
+}
+
+/// The Taylor coefficients of span `span`'s cubic about `start` (its first knot): its `k`-th
+/// derivative there divided by `k!`, per axis.
+fn taylor(spline: &Spline, span: usize, start: f64) -> [[f64; MAX_AXES]; DEGREE + 1] {
+    let ders = basis_derivatives(&spline.knots, span, start);
+    let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
+    let mut factorial = 1.0;
+    for (k, row) in ders.iter().enumerate() {
+        if k > 1 {
+            factorial *= k as f64;
+        }
+        for (j, b) in row.iter().enumerate() {
+            let c = spline.control[span - DEGREE + j].array();
+            for (o, c) in out[k].iter_mut().zip(c) {
+                *o += b * c / factorial;
+            }
+        }
+    }
+    out
 }
 
 /// `ders[k][j]`: the `k`-th derivative of the basis function `span − DEGREE + j` at `u`
@@ -587,7 +620,7 @@ fn refit(
 /// `tolerance` from the programmed segment.
 fn check(kin: &dyn Kinematics, fit: &Fit, tolerance: f64, segments: Range<usize>, failing: &mut Vec<usize>) {
     let (poses, params) = (&fit.poses, &fit.params);
-    let mut cursor = Cursor { spline: &fit.spline, span: segments.start + 1 };
+    let mut cursor = Cursor { spline: &fit.spline, span: segments.start + 1, taylor: None };
     for s in segments {
         let (a, b) = (&poses[s].tip, &poses[s + 1].tip);
         let off = (1..8)
@@ -744,6 +777,61 @@ mod tests {
         for (g, c) in global.control.iter().zip(&fit.spline.control) {
             for a in 0..5 {
                 assert!((g[a] - c[a]).abs() < 1e-9, "{g:?} vs {c:?}");
+            }
+        }
+    }
+
+    /// The derivatives straight from the basis functions' derivatives at `u` (The NURBS Book
+    /// A2.3), what the Taylor form of each span must equal.
+    fn derivatives_at(spline: &Spline, u: f64) -> [[f64; MAX_AXES]; DEGREE + 1] {
+        let span = find_span(&spline.knots, spline.control.len(), u, DEGREE);
+        let ders = basis_derivatives(&spline.knots, span, u);
+        let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
+        for (k, row) in ders.iter().enumerate() {
+            for (j, b) in row.iter().enumerate() {
+                for (o, c) in out[k].iter_mut().zip(spline.control[span - DEGREE + j].array()) {
+                    *o += b * c;
+                }
+            }
+        }
+        out
+    }
+
+    proptest::proptest! {
+        /// The cursor's derivatives (each span's cubic in Taylor form, computed once per span)
+        /// are the curve's: those of the basis functions at `u`, to rounding, at knots, between
+        /// them and outside the domain, in any order (the cursor going back and forth between
+        /// spans), on uneven knots.
+        #[test]
+        fn the_derivatives_of_each_span_are_the_curve_s(
+            steps in proptest::collection::vec(0.01..5.0_f64, 4..40),
+            coords in proptest::collection::vec(-500.0..500.0_f64, 3 * 40),
+            at in proptest::collection::vec(-0.1..1.1_f64, 30),
+        ) {
+            let n = steps.len();
+            let params: Vec<f64> = steps.iter().scan(0.0, |u, s| { *u += s; Some(*u) }).collect();
+            let points: Vec<Joints> =
+                (0..n).map(|i| Joints::from_slice(&coords[3 * i..3 * i + 3])).collect();
+            let spline = interpolate(&points, &params).expect("fits");
+            let (lo, hi) = spline.domain();
+            let knots_inside = spline.knots[DEGREE..=spline.control.len()].to_vec();
+            let scale = spline.control.iter().flat_map(|c| c.as_slice().to_vec()).fold(1.0, |m: f64, v| m.max(v.abs()));
+            let mut cursor = spline.cursor();
+            for (i, &f) in at.iter().enumerate() {
+                // Every third parameter is a knot itself.
+                let u = if i % 3 == 0 { knots_inside[i % knots_inside.len()] } else { lo + (hi - lo) * f };
+                let (got, want) = (cursor.derivatives(u), derivatives_at(&spline, u.clamp(lo, hi)));
+                // Each order's values scale with the control points over the knot spacing's power.
+                let spacing = steps.iter().cloned().fold(f64::INFINITY, f64::min);
+                for k in 0..=DEGREE {
+                    let tolerance = 1e-11 * scale / spacing.powi(k as i32);
+                    for a in 0..3 {
+                        proptest::prop_assert!(
+                            (got[k][a] - want[k][a]).abs() <= tolerance,
+                            "order {k} axis {a} at {u}: {} vs {}", got[k][a], want[k][a]
+                        );
+                    }
+                }
             }
         }
     }
