@@ -81,6 +81,8 @@ pub struct ToolingReader<'a> {
     /// The change whose geometry may still follow.
     pending: Option<usize>,
     moved: bool,
+    /// The tool was assumed at the first move, the tool table's only one (`true`) or not.
+    assumed: Option<bool>,
     /// Items so far.
     count: usize,
 }
@@ -95,6 +97,7 @@ impl<'a> ToolingReader<'a> {
             shape: None,
             pending: None,
             moved: false,
+            assumed: None,
             count: 0,
         }
     }
@@ -123,22 +126,15 @@ impl<'a> ToolingReader<'a> {
             }
             ItemKind::Move(_) | ItemKind::Arc(_) | ItemKind::Nurbs(_) => {
                 if !self.moved && out.changes.is_empty() {
-                    // No tool loaded before the first motion: the only tool of the table, or T1.
+                    // No tool loaded before the first motion: the only tool of the table, or T1
+                    // until the CL file loads one (`finish`).
                     let only = table.filter(|t| t.tools.len() == 1).map(|t| t.tools[0].number);
-                    let number = only.unwrap_or(1);
-                    let tool = tool_index(&mut out.tools, number, None, None, table);
+                    let tool = tool_index(&mut out.tools, only.unwrap_or(1), None, None, table);
                     if let Some(s) = self.shape.take() {
                         fill_shape(&mut out.tools[tool], &s, table);
                     }
                     out.changes.push(Change { item: k, span: item.span, tool, assumed: true });
-                    let from = if only.is_some() { "the only tool of the tool table" } else { "assumed" };
-                    self.warnings.push(Warning {
-                        span: item.span,
-                        message: format!(
-                            "the CL file loads no tool before its first move: T{number} ({from}) is written; \
-                             load the tool in the CL file (LOADTL, LOAD/TOOL) or give a tool table with one tool"
-                        ),
-                    });
+                    self.assumed = Some(only.is_some());
                 }
                 self.moved = true;
                 self.pending = None;
@@ -147,8 +143,41 @@ impl<'a> ToolingReader<'a> {
         }
     }
 
-    /// The tools and their changes, and what had to be assumed.
-    pub fn finish(self) -> (Tooling, Vec<Warning>) {
+    /// The tools and their changes, and what had to be assumed: a tool the CL file moves before
+    /// it loads one is the tool table's only one, else the first tool the file loads (the move is
+    /// the way to its change: CATIA's tool-change macro goes to the change point first), else T1.
+    pub fn finish(mut self) -> (Tooling, Vec<Warning>) {
+        let Some(only_tool) = self.assumed else { return (self.out, self.warnings) };
+        let out = &mut self.out;
+        let first_loaded = out.changes.iter().find(|c| !c.assumed).map(|c| c.tool);
+        let from = match first_loaded {
+            _ if only_tool => "the only tool of the tool table",
+            Some(loaded) => {
+                let assumed = std::mem::replace(&mut out.changes[0].tool, loaded);
+                if assumed != loaded && out.changes.iter().all(|c| c.tool != assumed) {
+                    // The assumed T1 goes; what the CL file gave of its geometry is the tool's.
+                    let gone = out.tools.remove(assumed);
+                    let tool = &mut out.tools[if loaded > assumed { loaded - 1 } else { loaded }];
+                    tool.diameter = tool.diameter.or(gone.diameter);
+                    tool.corner_radius = tool.corner_radius.or(gone.corner_radius);
+                    tool.length = tool.length.or(gone.length);
+                    for c in &mut out.changes {
+                        c.tool -= usize::from(c.tool > assumed);
+                    }
+                }
+                "the first tool it loads"
+            }
+            None => "assumed",
+        };
+        let first = out.changes[0];
+        let number = out.tools[first.tool].number;
+        self.warnings.push(Warning {
+            span: first.span,
+            message: format!(
+                "the CL file loads no tool before its first move: T{number} ({from}) is written; \
+                 load the tool in the CL file (LOADTL, LOAD/TOOL) or give a tool table with one tool"
+            ),
+        });
         (self.out, self.warnings)
     }
 }

@@ -311,3 +311,42 @@ fn a_from_before_the_first_tool_change_is_the_start_point_not_a_move() {
     assert!(said.lines().any(|l| l == note), "{said}");
     assert!(!said.contains("loads no tool"), "{said}");
 }
+
+/// A CL file that moves before it loads a tool (CATIA's tool-change macro goes to the change
+/// point, then loads) gets the first tool it loads written at its first move, with that tool's
+/// length offset, not a T1 it never names; one that loads none gets T1, assumed; each is warned.
+#[test]
+fn a_move_before_the_first_tool_change_is_made_with_the_first_tool_the_file_loads() {
+    let part = std::fs::read_to_string(jobs().join("part.cl")).expect("part.cl");
+    let dir = out_dir("move_before_tool");
+    for (name, text, tools, said) in [
+        (
+            "macro.cl",
+            part.replacen("LOADTL/1", "RAPID\nGOTO/0,0,100\nLOADTL/7", 1),
+            vec!["T7", "T7", "T2"],
+            "T7 (the first tool it loads) is written",
+        ),
+        (
+            "none.cl",
+            part.lines().filter(|l| !l.starts_with("LOADTL")).collect::<Vec<_>>().join("\n") + "\n",
+            vec!["T1"],
+            "T1 (assumed) is written",
+        ),
+    ] {
+        std::fs::write(dir.join(name), text).expect("the CL file");
+        let o = postpro(&["--machine", "maho600e", name, "-o", "-", "--no-predict"], &dir);
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
+        let program = String::from_utf8(o.stdout.clone()).expect("UTF-8");
+        let lines: Vec<&str> = program.lines().collect();
+        let changes: Vec<&str> = lines.iter().filter(|l| l.ends_with(" M6")).map(|l| &l[..l.len() - 3]).collect();
+        assert_eq!(changes, tools, "{name}:\n{program}");
+        // Each change is followed by its own tool's length offset.
+        for (k, line) in lines.iter().enumerate().filter(|(_, l)| l.ends_with(" M6")) {
+            assert_eq!(lines[k + 1], format!("G43 H{}", &line[1..line.len() - 3]), "{name}:\n{program}");
+        }
+        let warnings = stderr(&o);
+        let warned: Vec<&str> = warnings.lines().filter(|l| l.contains("loads no tool")).collect();
+        assert_eq!(warned.len(), 1, "{name}:\n{warnings}");
+        assert!(warned[0].contains(said), "{name}:\n{warnings}");
+    }
+}
