@@ -29,15 +29,21 @@ fn example(file: &str) -> String {
 }
 
 fn predict(file: &str, machine: &Machine, planner: Planner) -> Prediction {
+    predict_in(file, machine, planner, Mode::G1)
+}
+
+/// [`predict`] in `mode`: B-spline output is predicted along the spline the program writes.
+fn predict_in(file: &str, machine: &Machine, planner: Planner, mode: Mode) -> Prediction {
     let text = example(file);
     let source = postpro_cl::Source::new(file, text.as_str());
     let path = postpro_cl::read(&source);
     assert!(!path.has_errors(), "{file} reads");
     let kin = postpro_kin::solver_for(machine);
     let solved = postpro_kin::solve(kin.as_ref(), &path, &machine.policy).expect("the example solves");
-    let program = postpro_motion::study(&path, &solved, kin.as_ref(), Mode::G1).expect("the motion program builds");
+    let program = postpro_motion::study(&path, &solved, kin.as_ref(), mode).expect("the motion program builds");
     let blocks = postpro_predict::blocks(&program, machine, Timing::TipFeed);
-    let options = Options { planner, threshold: 0.8, samples: true, ..Options::default() };
+    let splines = mode == Mode::Bspline;
+    let options = Options { planner, threshold: 0.8, samples: true, splines, ..Options::default() };
     postpro_predict::predict(&blocks, kin.as_ref(), &options)
 }
 
@@ -222,4 +228,35 @@ fn no_example_exceeds_its_programmed_feed() {
 #[test]
 fn within_a_block_the_accelerations_and_jerks_are_those_of_the_samples() {
     assert_all(Checks::WithinBlocks);
+}
+
+/// B-spline output, predicted along the spline the program writes (pieces whose caps bound the
+/// spline's derivatives): no sample of any example exceeds an axis's velocity, acceleration or
+/// jerk, and the motion starts and ends at rest.
+#[test]
+fn every_example_in_b_spline_mode_keeps_the_axis_limits() {
+    let mut failures = String::new();
+    for (file, name) in CASES {
+        let machine = Registry::builtin().expect("the built-ins load").find(name).expect("built in").machine.clone();
+        let p = predict_in(file, &machine, Planner::Vpop, Mode::Bspline);
+        let w = worst(p.samples.as_ref().expect("samples kept"), &machine);
+        let case = format!("{file} on {} (B-spline)", machine.name);
+        println!("{case}: {} samples, cycle time {:.3} s", w.samples, p.totals().cycle_time);
+        println!("{}", table(&machine, "|v| / Vmax", &w.velocity));
+        println!("{}", table(&machine, "|a| / Amax", &w.acceleration));
+        println!("{}", table(&machine, "|j| / Jmax", &w.jerk));
+        for (what, ok) in [
+            ("velocity", max(&w.velocity) <= 1.0 + 1e-6),
+            ("acceleration", max(&w.acceleration) <= 1.0 + 1e-6),
+            ("jerk", max(&w.jerk) <= 1.0 + 1e-6),
+            ("time not strictly increasing", w.not_increasing == 0),
+            ("not at rest at the start", w.start_speed == 0.0),
+            ("not at rest at the end", w.end_speed == 0.0),
+        ] {
+            if !ok {
+                writeln!(failures, "{case}: {what}").unwrap();
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures}");
 }
