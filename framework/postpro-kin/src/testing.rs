@@ -61,6 +61,7 @@ pub(crate) fn machine(rotaries: &[(&str, [f64; 3], [f64; 3], bool)], solver: Sol
             tangential_jerk: None,
             feed_min: 1.0,
             feed_max: 30000.0,
+            spindle_max: None,
         },
         policy: PolicyDefaults {
             branch: BranchPreference::Closest,

@@ -293,6 +293,8 @@ pub struct CncParams {
     pub feed_min: f64,
     /// Largest programmable feed (mm/min).
     pub feed_max: f64,
+    /// The spindle's largest speed (rpm), when the definition gives it.
+    pub spindle_max: Option<f64>,
 }
 
 /// Defaults of the IKT policy.

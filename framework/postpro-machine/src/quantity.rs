@@ -418,6 +418,30 @@ impl<'de> serde::Deserialize<'de> for Feed {
     }
 }
 
+/// A spindle speed, in rpm (bare numbers: rpm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpindleSpeed(pub f64);
+
+impl SpindleSpeed {
+    /// What a key expecting a spindle speed expects.
+    pub fn expected() -> String {
+        "expected a spindle speed (an angular velocity) such as `8100 rpm` (a bare number is in rpm)".into()
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for SpindleSpeed {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserialize_with(deserializer, &SpindleSpeed::expected(), |written, text| match &written.unit {
+            None => Ok(SpindleSpeed(written.number)),
+            // rad/s in the model's units, then revolutions per minute.
+            Some(u) if u.dimension == Dimension::AngularVelocity => {
+                Ok(SpindleSpeed(u.to_model(written.number) * 60.0 / (2.0 * PI)))
+            }
+            Some(u) => Err(QuantityError::WrongDimension { text: text.trim().to_string(), found: u.dimension }),
+        })
+    }
+}
+
 /// An axis value whose dimension depends on the axis kind: a length for a linear axis, an angle
 /// for a rotary one, over time to the power `P` (0: position, 1: velocity, 2: acceleration,
 /// 3: jerk). Deserializing checks the unit and the power; [`AxisQuantity::to_model`] checks the
@@ -570,6 +594,11 @@ mod tests {
         let f: Feed = serde_yaml::from_str("2 in/min").unwrap();
         assert!(close(f.0, 50.8));
         assert!(serde_yaml::from_str::<Feed>("1 rpm").is_err());
+        let rpm = |text: &str| serde_yaml::from_str::<SpindleSpeed>(text).map(|s| s.0);
+        assert_eq!(rpm("8100").ok(), Some(8100.0));
+        assert!((rpm("8100 rpm").expect("rpm") - 8100.0).abs() < 1e-9);
+        assert!((rpm("135 rev/s").expect("rev/s") - 8100.0).abs() < 1e-9);
+        assert!(rpm("8100 mm/min").is_err());
     }
 
     #[test]

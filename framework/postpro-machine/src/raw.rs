@@ -17,7 +17,7 @@ use std::fmt;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 
-use crate::quantity::{Angle, AxisQuantity, Feed, Length, LinearAcceleration, LinearJerk, Time};
+use crate::quantity::{Angle, AxisQuantity, Feed, Length, LinearAcceleration, LinearJerk, SpindleSpeed, Time};
 
 /// One machine definition file.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -233,6 +233,8 @@ pub struct Cnc {
     pub feed_min: Feed,
     /// Largest programmable feed (default: the largest linear-axis `vmax`).
     pub feed_max: Option<Feed>,
+    /// The spindle's largest speed (default none: not checked).
+    pub spindle_max: Option<SpindleSpeed>,
 }
 
 impl Default for Cnc {
@@ -246,6 +248,7 @@ impl Default for Cnc {
             tangential_jerk: None,
             feed_min: Feed(1.0),
             feed_max: None,
+            spindle_max: None,
         }
     }
 }

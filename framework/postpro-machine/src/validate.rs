@@ -548,6 +548,15 @@ impl Validator<'_> {
                 ));
             }
         }
+        if let Some(s) = c.spindle_max
+            && !(s.0 > 0.0 && s.0.is_finite())
+        {
+            return Err(self.err(
+                path!["cnc", "spindle_max"],
+                format!("largest spindle speed {} rpm", s.0),
+                "expected a positive spindle speed such as `8100 rpm`, or no `spindle_max`",
+            ));
+        }
         if c.feed_min.0 <= 0.0 {
             return Err(self.err(
                 path!["cnc", "feed_min"],
@@ -581,6 +590,7 @@ impl Validator<'_> {
             tangential_jerk: c.tangential_jerk.map(|j| j.0),
             feed_min: c.feed_min.0,
             feed_max,
+            spindle_max: c.spindle_max.map(|s| s.0),
         })
     }
 
@@ -1156,6 +1166,15 @@ chain:
         assert_eq!(at, "0 m/s^3");
         let m = load(&cnc("  feed_max: 12 m/min\n  tangential_accel: 5 m/s^2")).unwrap();
         assert_eq!((m.cnc.feed_max, m.cnc.tangential_accel, m.cnc.look_ahead), (12_000.0, Some(5000.0), 10));
+        assert_eq!(m.cnc.spindle_max, None);
+        let (m, e, at) = fails(&cnc("  spindle_max: 0 rpm"));
+        assert_eq!((m.as_str(), at.as_str()), ("cnc.spindle_max: largest spindle speed 0 rpm", "0 rpm"));
+        assert!(e.contains("8100 rpm"), "{e}");
+        let (_, e, at) = fails(&cnc("  spindle_max: 8100 mm/min"));
+        assert!(e.contains("spindle speed"), "{e}");
+        assert_eq!(at, "8100 mm/min");
+        let m = load(&cnc("  spindle_max: 12000")).unwrap();
+        assert_eq!(m.cnc.spindle_max, Some(12_000.0));
     }
 
     #[test]

@@ -406,6 +406,8 @@ pub(crate) struct Builder<'a> {
     pub(crate) cycle: Option<crate::cycle::PendingCycle>,
     /// The first feed move, for the warnings about what the CL file never says.
     first_feed: Option<Span>,
+    /// Spindle speeds limited to the machine's largest, each said once.
+    limited_spindle: Vec<f64>,
     /// Feeds limited to the machine's range, each said once.
     limited: Vec<f64>,
     /// Bspline mode: the feed moves waiting to be fitted, linearization points included.
@@ -464,6 +466,7 @@ impl<'a> Builder<'a> {
             first_feed: None,
             cycle: None,
             limited: Vec::new(),
+            limited_spindle: Vec::new(),
             run: Vec::new(),
             run_start: None,
             last_step: None,
@@ -565,6 +568,27 @@ impl<'a> Builder<'a> {
         self.at_clearance = true;
         self.last_tip = None;
         Ok(())
+    }
+
+    /// A spindle speed (rpm) within the machine's largest, said once per speed where it is not:
+    /// the controller would run it at that, and the feeds made for the speed asked would load each
+    /// tooth more.
+    fn spindle_speed(&mut self, rpm: f64, span: Span) -> f64 {
+        let Some(max) = self.machine.cnc.spindle_max.filter(|max| rpm > *max) else { return rpm };
+        if !self.limited_spindle.contains(&rpm) {
+            self.limited_spindle.push(rpm);
+            self.warn(
+                span,
+                format!(
+                    "spindle speed {} rpm limited to {} rpm, the machine's largest: at the programmed feeds each \
+                     tooth cuts {:.1} times the chip the CAM system planned; choose a tool and speeds for this machine",
+                    crate::number(rpm),
+                    crate::number(max),
+                    rpm / max
+                ),
+            );
+        }
+        max
     }
 
     /// The feed word of a programmed feed (per minute: within the controller's and the
@@ -841,14 +865,12 @@ impl<'a> Builder<'a> {
         }
         let block = match kind {
             ItemKind::Spindle(Spindle::On { speed, unit, clockwise }) => {
-                self.spindle_rpm = (*unit == SpindleUnit::Rpm).then_some(*speed);
+                let rpm = *unit == SpindleUnit::Rpm;
+                let speed = if rpm { self.spindle_speed(*speed, span) } else { *speed };
+                self.spindle_rpm = rpm.then_some(speed);
                 self.spindle_on = true;
                 self.spindle_seen = true;
-                BlockKind::SpindleOn {
-                    speed: *speed,
-                    clockwise: *clockwise,
-                    surface_speed: *unit == SpindleUnit::SurfaceSpeed,
-                }
+                BlockKind::SpindleOn { speed, clockwise: *clockwise, surface_speed: *unit == SpindleUnit::SurfaceSpeed }
             }
             ItemKind::Spindle(Spindle::Off) => {
                 self.spindle_on = false;

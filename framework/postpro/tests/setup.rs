@@ -350,3 +350,29 @@ fn a_move_before_the_first_tool_change_is_made_with_the_first_tool_the_file_load
         assert!(warned[0].contains(said), "{name}:\n{warnings}");
     }
 }
+
+/// A spindle speed above the machine's largest (`cnc.spindle_max`: the Haas UMC-750's 8 100 rpm)
+/// is written at that largest speed, which is what the controller would run, with a warning
+/// naming the CL line and how much more each tooth then cuts; on a machine whose definition
+/// gives none it is written as programmed.
+#[test]
+fn a_spindle_speed_beyond_the_machine_s_is_limited_and_said() {
+    let speeds = |program: &str| -> Vec<String> {
+        program.lines().filter_map(|l| l.split_whitespace().find(|w| w.starts_with('S')).map(str::to_string)).collect()
+    };
+    let o = postpro(&["--machine", "haas-umc750", "part.cl", "-o", "-", "--no-predict"], &jobs());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(speeds(&String::from_utf8(o.stdout.clone()).expect("UTF-8")), ["S8000", "S8100"]);
+    let said = stderr(&o);
+    let limited: Vec<&str> = said.lines().filter(|l| l.contains("spindle speed")).collect();
+    assert_eq!(
+        limited,
+        ["warning: part.cl:17:1: spindle speed 12000 rpm limited to 8100 rpm, the machine's largest: at the \
+          programmed feeds each tooth cuts 1.5 times the chip the CAM system planned; choose a tool and speeds \
+          for this machine"],
+        "{said}"
+    );
+    let o = postpro(&["--machine", "maho600e", "part.cl", "-o", "-", "--no-predict"], &jobs());
+    assert_eq!(speeds(&String::from_utf8(o.stdout.clone()).expect("UTF-8")), ["S8000", "S12000"]);
+    assert!(!stderr(&o).contains("spindle speed"), "{}", stderr(&o));
+}
