@@ -406,16 +406,26 @@ impl Feed {
 
 impl<'de> serde::Deserialize<'de> for Feed {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        deserialize_with(deserializer, &Feed::expected(), |written, text| match &written.unit {
-            // A bare feed is in mm/min, the unit of the model.
-            None => Ok(Feed(written.number)),
-            // Multiplied before dividing: `10 m/min` is exactly 10000 mm/min.
-            Some(u) if u.dimension == Dimension::LinearVelocity => {
-                Ok(Feed(written.number * u.factor * 60.0 / u.divisor))
-            }
-            Some(u) => Err(QuantityError::WrongDimension { text: text.trim().to_string(), found: u.dimension }),
-        })
+        // A bare feed is in mm/min, the unit of the model. Multiplied before dividing: `10 m/min`
+        // is exactly 10000 mm/min.
+        let convert = |u: &Unit, number: f64| number * u.factor * 60.0 / u.divisor;
+        deserialize_in(deserializer, &Feed::expected(), Dimension::LinearVelocity, convert).map(Feed)
     }
+}
+
+/// Deserializes a quantity of `dimension` held in a unit of its own: a bare number is in that
+/// unit, a number with a unit is converted by `convert`.
+fn deserialize_in<'de, D: Deserializer<'de>>(
+    deserializer: D,
+    expected: &str,
+    dimension: Dimension,
+    convert: impl FnOnce(&Unit, f64) -> f64,
+) -> Result<f64, D::Error> {
+    deserialize_with(deserializer, expected, |written, text| match &written.unit {
+        None => Ok(written.number),
+        Some(u) if u.dimension == dimension => Ok(convert(u, written.number)),
+        Some(u) => Err(QuantityError::WrongDimension { text: text.trim().to_string(), found: u.dimension }),
+    })
 }
 
 /// A spindle speed, in rpm (bare numbers: rpm).
@@ -431,14 +441,9 @@ impl SpindleSpeed {
 
 impl<'de> serde::Deserialize<'de> for SpindleSpeed {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        deserialize_with(deserializer, &SpindleSpeed::expected(), |written, text| match &written.unit {
-            None => Ok(SpindleSpeed(written.number)),
-            // rad/s in the model's units, then revolutions per minute.
-            Some(u) if u.dimension == Dimension::AngularVelocity => {
-                Ok(SpindleSpeed(u.to_model(written.number) * 60.0 / (2.0 * PI)))
-            }
-            Some(u) => Err(QuantityError::WrongDimension { text: text.trim().to_string(), found: u.dimension }),
-        })
+        // rad/s in the model's units, then revolutions per minute.
+        let convert = |u: &Unit, number: f64| u.to_model(number) * 60.0 / (2.0 * PI);
+        deserialize_in(deserializer, &SpindleSpeed::expected(), Dimension::AngularVelocity, convert).map(SpindleSpeed)
     }
 }
 
