@@ -99,7 +99,12 @@ impl Spline {
 
     /// A cursor for many evaluations, each searching its span from the last one's.
     pub fn cursor(&self) -> Cursor<'_> {
-        Cursor { spline: self, span: DEGREE, taylor: None }
+        self.cursor_from(DEGREE)
+    }
+
+    /// A cursor whose first search starts at span `span`.
+    fn cursor_from(&self, span: usize) -> Cursor<'_> {
+        Cursor { spline: self, span, taylor: None }
     }
 
     /// The joint values at parameter `u` (de Boor), `u` clamped to the domain; O(log n). Many
@@ -251,17 +256,23 @@ fn de_boor(spline: &Spline, k: usize, u: f64) -> Joints {
 /// The Taylor coefficients of span `span`'s cubic about `start` (its first knot): its `k`-th
 /// derivative there divided by `k!`, per axis.
 fn taylor(spline: &Spline, span: usize, start: f64) -> [[f64; MAX_AXES]; DEGREE + 1] {
-    let ders = basis_derivatives(&spline.knots, span, start);
+    weighted(spline, span, &basis_derivatives(&spline.knots, span, start), [1.0, 1.0, 2.0, 6.0])
+}
+
+/// Span `span`'s control points weighted by the basis functions' derivatives `ders`, per order
+/// `k` and axis, each term divided by `divisors[k]`.
+fn weighted(
+    spline: &Spline,
+    span: usize,
+    ders: &[[f64; DEGREE + 1]; DEGREE + 1],
+    divisors: [f64; DEGREE + 1],
+) -> [[f64; MAX_AXES]; DEGREE + 1] {
     let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
-    let mut factorial = 1.0;
     for (k, row) in ders.iter().enumerate() {
-        if k > 1 {
-            factorial *= k as f64;
-        }
         for (j, b) in row.iter().enumerate() {
             let c = spline.control[span - DEGREE + j].array();
             for (o, c) in out[k].iter_mut().zip(c) {
-                *o += b * c / factorial;
+                *o += b * c / divisors[k];
             }
         }
     }
@@ -620,7 +631,7 @@ fn refit(
 /// `tolerance` from the programmed segment.
 fn check(kin: &dyn Kinematics, fit: &Fit, tolerance: f64, segments: Range<usize>, failing: &mut Vec<usize>) {
     let (poses, params) = (&fit.poses, &fit.params);
-    let mut cursor = Cursor { spline: &fit.spline, span: segments.start + 1, taylor: None };
+    let mut cursor = fit.spline.cursor_from(segments.start + 1);
     for s in segments {
         let (a, b) = (&poses[s].tip, &poses[s + 1].tip);
         let off = (1..8)
@@ -785,16 +796,7 @@ mod tests {
     /// A2.3), what the Taylor form of each span must equal.
     fn derivatives_at(spline: &Spline, u: f64) -> [[f64; MAX_AXES]; DEGREE + 1] {
         let span = find_span(&spline.knots, spline.control.len(), u, DEGREE);
-        let ders = basis_derivatives(&spline.knots, span, u);
-        let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
-        for (k, row) in ders.iter().enumerate() {
-            for (j, b) in row.iter().enumerate() {
-                for (o, c) in out[k].iter_mut().zip(spline.control[span - DEGREE + j].array()) {
-                    *o += b * c;
-                }
-            }
-        }
-        out
+        weighted(spline, span, &basis_derivatives(&spline.knots, span, u), [1.0; DEGREE + 1])
     }
 
     proptest::proptest! {
@@ -816,13 +818,13 @@ mod tests {
             let (lo, hi) = spline.domain();
             let knots_inside = spline.knots[DEGREE..=spline.control.len()].to_vec();
             let scale = spline.control.iter().flat_map(|c| c.as_slice().to_vec()).fold(1.0, |m: f64, v| m.max(v.abs()));
+            // Each order's values scale with the control points over the knot spacing's power.
+            let spacing = steps.iter().cloned().fold(f64::INFINITY, f64::min);
             let mut cursor = spline.cursor();
             for (i, &f) in at.iter().enumerate() {
                 // Every third parameter is a knot itself.
                 let u = if i % 3 == 0 { knots_inside[i % knots_inside.len()] } else { lo + (hi - lo) * f };
                 let (got, want) = (cursor.derivatives(u), derivatives_at(&spline, u.clamp(lo, hi)));
-                // Each order's values scale with the control points over the knot spacing's power.
-                let spacing = steps.iter().cloned().fold(f64::INFINITY, f64::min);
                 for k in 0..=DEGREE {
                     let tolerance = 1e-11 * scale / spacing.powi(k as i32);
                     for a in 0..3 {

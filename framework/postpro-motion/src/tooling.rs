@@ -81,8 +81,6 @@ pub struct ToolingReader<'a> {
     /// The change whose geometry may still follow.
     pending: Option<usize>,
     moved: bool,
-    /// The tool was assumed at the first move, the tool table's only one (`true`) or not.
-    assumed: Option<bool>,
     /// Items so far.
     count: usize,
 }
@@ -97,7 +95,6 @@ impl<'a> ToolingReader<'a> {
             shape: None,
             pending: None,
             moved: false,
-            assumed: None,
             count: 0,
         }
     }
@@ -134,7 +131,6 @@ impl<'a> ToolingReader<'a> {
                         fill_shape(&mut out.tools[tool], &s, table);
                     }
                     out.changes.push(Change { item: k, span: item.span, tool, assumed: true });
-                    self.assumed = Some(only.is_some());
                 }
                 self.moved = true;
                 self.pending = None;
@@ -147,8 +143,11 @@ impl<'a> ToolingReader<'a> {
     /// it loads one is the tool table's only one, else the first tool the file loads (the move is
     /// the way to its change: CATIA's tool-change macro goes to the change point first), else T1.
     pub fn finish(mut self) -> (Tooling, Vec<Warning>) {
-        let Some(only_tool) = self.assumed else { return (self.out, self.warnings) };
         let out = &mut self.out;
+        if !out.changes.first().is_some_and(|c| c.assumed) {
+            return (self.out, self.warnings);
+        }
+        let only_tool = self.table.is_some_and(|t| t.tools.len() == 1);
         let first_loaded = out.changes.iter().find(|c| !c.assumed).map(|c| c.tool);
         let from = match first_loaded {
             _ if only_tool => "the only tool of the tool table",

@@ -502,14 +502,14 @@ impl Passes<'_> {
             (Some(mut p), Some((args, _))) => {
                 let done = p.predictor.finish(&p.blocks);
                 p.take(done);
+                let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
                 progress.suspend(|| {
                     for note in &p.blocks.notes {
                         eprintln!("note: {}: prediction: {}", file.location(note.span.start as usize), note.text);
                     }
-                    crate::predict::warn_if_abandoned(&p.predictor.totals());
+                    crate::predict::warn_if_abandoned(&totals);
                 });
                 let marks = p.marks.finish();
-                let (totals, operations) = (p.predictor.totals(), p.predictor.operations());
                 let header =
                     crate::predict::header((&totals, &operations), args, self.mode, &marks, (self.machine, file));
                 (Some(header), crate::predict::annotations(&marks, self.machine))
