@@ -10,8 +10,12 @@
 //!
 //! So α = ±acos(k'), and γ from atan2 on the branch's sign of sin α; at k' = ±1 (the pole) γ is
 //! free.
+//!
+//! The forward kinematics and its rate are the chain's (`crate::chain`), with each rotation
+//! about a coordinate axis written out: a turn about x, y or z moves two coordinates, where the
+//! generic chain's Rodrigues formula moves three about any direction.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Point3, Unit, Vector3};
 use postpro_machine::model::{ClosedForm, Machine};
 
 use crate::chain::{Chain, wrap};
@@ -34,6 +38,21 @@ pub struct TableTableClosedForm {
     second: usize,
     s1: f64,
     s2: f64,
+    forward: Forward,
+}
+
+/// What the forward kinematics needs, read once from the chain: the tool tip with every axis at
+/// zero, the linear axes' directions, the rotary axes' centres, and the part frame's inverse as
+/// a matrix and a translation.
+#[derive(Clone, Debug)]
+struct Forward {
+    tip0: Point3<f64>,
+    k0: Vector3<f64>,
+    linear: Vec<(usize, Vector3<f64>)>,
+    q1: Point3<f64>,
+    q2: Point3<f64>,
+    rotation: Matrix3<f64>,
+    translation: Vector3<f64>,
 }
 
 impl TableTableClosedForm {
@@ -55,7 +74,47 @@ impl TableTableClosedForm {
         };
         let s2 = along(d2, Vector3::z())?;
         along(machine.chain.tool_direction.into_inner(), Vector3::z()).filter(|s| *s > 0.0)?;
-        Some(TableTableClosedForm { chain: Chain::new(machine), tilt, first, second, s1, s2 })
+        let inverse = machine.chain.part_origin.inverse();
+        let forward = Forward {
+            tip0: machine.chain.tool_tip(),
+            k0: machine.chain.tool_direction.into_inner(),
+            linear: machine.chain.linear.iter().take(3).map(|&i| (i, machine.axes[i].direction.into_inner())).collect(),
+            q1: machine.axes[first].center,
+            q2: machine.axes[second].center,
+            rotation: inverse.rotation.to_rotation_matrix().into_inner(),
+            translation: inverse.translation.vector,
+        };
+        Some(TableTableClosedForm { chain: Chain::new(machine), tilt, first, second, s1, s2, forward })
+    }
+
+    /// The tilt's turn `v ↦ R(ω₁, θ) v` for (sin θ, cos θ) = (s, c), ω₁ = ±x or ±y.
+    fn tilt(&self, v: Vector3<f64>, s: f64, c: f64) -> Vector3<f64> {
+        match self.tilt {
+            Tilt::AboutX => rotate_x(v, self.s1 * s, c),
+            Tilt::AboutY => rotate_y(v, self.s1 * s, c),
+        }
+    }
+
+    /// `ω₁ × v`.
+    fn tilt_cross(&self, v: Vector3<f64>) -> Vector3<f64> {
+        match self.tilt {
+            Tilt::AboutX => Vector3::new(0.0, -v.z, v.y) * self.s1,
+            Tilt::AboutY => Vector3::new(v.z, 0.0, -v.x) * self.s1,
+        }
+    }
+
+    /// The tool tip in the base frame with the rotaries at zero: `tip₀ + Σ Lᵢ eᵢ` (the tool stands
+    /// on no rotary axis), and the rate of the given linear axis rates.
+    fn tip_in_base(&self, joints: &Joints, rates: Option<&Joints>) -> (Point3<f64>, Vector3<f64>) {
+        let f = &self.forward;
+        let (mut tip, mut rate) = (f.tip0, Vector3::zeros());
+        for &(i, direction) in &f.linear {
+            tip += direction * joints[i];
+            if let Some(rates) = rates {
+                rate += direction * rates[i];
+            }
+        }
+        (tip, rate)
     }
 }
 
@@ -80,11 +139,43 @@ impl Kinematics for TableTableClosedForm {
     }
 
     fn forward(&self, joints: &Joints) -> Pose {
-        self.chain.forward(joints)
+        // The chain's order: the tilt turned back (E(p₁)⁻¹), then the table (E(p₂)⁻¹), then the
+        // part frame's inverse.
+        let f = &self.forward;
+        let (tip, _) = self.tip_in_base(joints, None);
+        let (s1, c1) = joints[self.first].sin_cos();
+        let (s2, c2) = joints[self.second].sin_cos();
+        let tip = f.q1 + self.tilt(tip - f.q1, -s1, c1);
+        let axis = self.tilt(f.k0, -s1, c1);
+        let tip = f.q2 + rotate_z(tip - f.q2, -self.s2 * s2, c2);
+        let axis = rotate_z(axis, -self.s2 * s2, c2);
+        Pose {
+            tip: Point3::from(f.rotation * tip.coords + f.translation),
+            axis: Unit::new_normalize(f.rotation * axis),
+        }
     }
 
     fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {
-        self.chain.forward_rate(joints, rates)
+        // Forward mode through the same turns: a point x turned to q + R(x − q) at rate w about
+        // ω moves at R ẋ + w ω × R(x − q) (the part side turns the other way: −w).
+        let f = &self.forward;
+        let (tip, tip_rate) = self.tip_in_base(joints, Some(rates));
+        let (s1, c1) = joints[self.first].sin_cos();
+        let (s2, c2) = joints[self.second].sin_cos();
+        let (w1, w2) = (-rates[self.first], -rates[self.second]);
+        let arm = self.tilt(tip - f.q1, -s1, c1);
+        let tip_rate = self.tilt(tip_rate, -s1, c1) + self.tilt_cross(arm) * w1;
+        let axis = self.tilt(f.k0, -s1, c1);
+        let axis_rate = self.tilt_cross(axis) * w1;
+        let tip = f.q1 + arm;
+        // About ±z: ω₂ × v = s₂ (−v_y, v_x, 0).
+        let z_cross = |v: Vector3<f64>| Vector3::new(-v.y, v.x, 0.0) * self.s2;
+        let (s, c) = (-self.s2 * s2, c2);
+        let arm = rotate_z(tip - f.q2, s, c);
+        let tip_rate = rotate_z(tip_rate, s, c) + z_cross(arm) * w2;
+        let axis = rotate_z(axis, s, c);
+        let axis_rate = rotate_z(axis_rate, s, c) + z_cross(axis) * w2;
+        PoseRate { tip: f.rotation * tip_rate, axis: f.rotation * axis_rate }
     }
 
     fn inverse(&self, pose: &Pose, out: &mut Solutions) {

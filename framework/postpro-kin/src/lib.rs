@@ -156,6 +156,25 @@ mod tests {
                     assert!(close, "closed {:?} not among generic {:?}", s, a);
                 }
             }
+            // The forward kinematics and its rate, written out per coordinate axis, are the
+            // chain's to rounding, at any angles (the poses' solutions and beyond a turn).
+            for k in 0..200 {
+                let t = f64::from(k) * 0.173;
+                let joints = Joints::from_slice(&[
+                    300.0 * t.cos(),
+                    t * 7.0 - 150.0,
+                    -40.0 * t.sin(),
+                    4.0 * (1.3 * t).sin(),
+                    9.0 * (0.7 * t).cos(),
+                ]);
+                let rates = Joints::from_slice(&[0.3, -1.2, 0.5, 0.8 * t.cos(), -0.6 * (2.1 * t).sin()]);
+                let (g, c) = (generic.forward(&joints), closed.forward(&joints));
+                assert!((g.tip - c.tip).norm() < 1e-10, "{form:?} at {joints:?}: {g:?} vs {c:?}");
+                assert!((g.axis.into_inner() - c.axis.into_inner()).norm() < 1e-14, "{form:?}: {g:?} vs {c:?}");
+                let (g, c) = (generic.forward_rate(&joints, &rates), closed.forward_rate(&joints, &rates));
+                assert!((g.tip - c.tip).norm() < 1e-10, "{form:?} at {joints:?}: {g:?} vs {c:?}");
+                assert!((g.axis - c.axis).norm() < 1e-14, "{form:?}: {g:?} vs {c:?}");
+            }
         }
     }
 }
