@@ -440,7 +440,11 @@ pub(crate) struct Collector {
     min_speed_between_stops: Window<f64>,
     pub(crate) samples: Option<Samples>,
     last_tip: Option<(f64, nalgebra::Point3<f64>)>,
-    last_sample: Option<(f64, usize)>,
+    /// The parameter of the last sample.
+    last_sample: Option<f64>,
+    /// Where the tip length not yet compared with the threshold starts: the last sample, or
+    /// the last junction crossed since (its parameter, and the piece after it).
+    below_from: Option<(f64, usize)>,
     /// The time of the last sample.
     last_time: f64,
     pub(crate) length_below: f64,
@@ -520,6 +524,7 @@ impl Collector {
             samples: samples.then(|| Samples { axes, ..Samples::default() }),
             last_tip: None,
             last_sample: None,
+            below_from: None,
             last_time: 0.0,
             length_below: 0.0,
             count: 0,
@@ -612,6 +617,21 @@ impl Collector {
         if v < self.min_speed[block] {
             self.min_speed[block] = v;
             self.results[block].limit = self.shown(blocks, block, v, limit);
+        }
+    }
+
+    /// Adds to [`Self::length_below`] the tip length from where it was last compared to parameter
+    /// `u` on `piece`, when the parameter speed `v` reached there is below the threshold (a feed
+    /// block's; nothing when the motion is on another piece than that start: a junction between
+    /// is compared as it is crossed).
+    fn below(&mut self, blocks: &Blocks, owner: &Window<usize>, u: f64, piece: usize, v: f64) {
+        let Some((u0, p0)) = self.below_from else { return };
+        let block = owner[piece];
+        if p0 == piece && blocks.kind[block] == BlockKind::Feed {
+            let tip_feed = self.scale[block];
+            if v * tip_feed / blocks.feed[block] < self.threshold {
+                self.length_below += (u - u0) * tip_feed;
+            }
         }
     }
 
@@ -820,19 +840,11 @@ impl Observer for Observing<'_> {
         c.account(seen, s);
         let block = seen.owner[s.piece];
         c.reach(blocks, block, s.v, s.limit);
-        // The tip length covered since the last sample, below the threshold or not.
-        let tip_feed = c.scale[block];
-        if let Some((u0, p0)) = c.last_sample
-            && p0 == s.piece
-            && blocks.kind[block] == BlockKind::Feed
-        {
-            let share = s.v * tip_feed / blocks.feed[block];
-            if share < c.threshold {
-                c.length_below += (s.u - u0) * tip_feed;
-            }
-        }
-        let (u0, t0) = (c.last_sample.map_or(s.u, |(u, _)| u), c.last_time);
-        c.last_sample = Some((s.u, s.piece));
+        // The tip length covered since the last sample or junction, below the threshold or not.
+        c.below(blocks, seen.owner, s.u, s.piece, s.v);
+        c.below_from = Some((s.u, s.piece));
+        let (u0, t0) = (c.last_sample.unwrap_or(s.u), c.last_time);
+        c.last_sample = Some(s.u);
         c.last_time = s.t;
         if c.samples.is_none() {
             return;
@@ -858,6 +870,9 @@ impl Observer for Observing<'_> {
         let (c, seen) = (&mut *self.collector, self.seen);
         let block = seen.owner[piece];
         c.reach(seen.blocks, block, v, limit);
+        let end = c.piece_start[piece] + c.piece_length[piece];
+        c.below(seen.blocks, seen.owner, end, piece, v);
+        c.below_from = Some((end, piece + 1));
         c.results[block].time = t - c.entered[block];
         // The step's part in the piece it leaves; a dwell after it belongs to no step.
         c.split.piece = piece;
