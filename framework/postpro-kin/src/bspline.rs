@@ -146,18 +146,9 @@ impl Cursor<'_> {
     /// the span's cubic, in Taylor form about its first knot, computed once per span.
     pub fn derivatives(&mut self, u: f64) -> [Joints; DEGREE + 1] {
         let (u, span) = self.locate(u);
-        let spline = self.spline;
-        let start = spline.knots[span];
-        let c = match self.taylor {
-            Some((cached, c)) if cached == span => c,
-            _ => {
-                let c = taylor(spline, span, start);
-                self.taylor = Some((span, c));
-                c
-            }
-        };
+        let (start, c) = self.coefficients(span);
         let t = u - start;
-        let axes = spline.control[0].len();
+        let axes = self.spline.control[0].len();
         let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
         for a in 0..axes {
             let [c0, c1, c2, c3] = [c[0][a], c[1][a], c[2][a], c[3][a]];
@@ -167,6 +158,48 @@ impl Cursor<'_> {
             out[3][a] = 6.0 * c3;
         }
         out.map(|values| Joints::from_array(values, axes))
+    }
+
+    /// The largest magnitudes of the first, second and third derivatives of each axis over
+    /// `from..=to`, a stretch within one knot span (the span of its middle; both clamped to
+    /// the domain): exact for the span's cubic, whose first derivative peaks at an end or at its
+    /// parabola's vertex, the second at an end, and whose third is constant.
+    pub fn derivative_bounds(&mut self, from: f64, to: f64) -> [[f64; MAX_AXES]; DEGREE] {
+        let (_, span) = self.locate(0.5 * (from + to));
+        let (start, c) = self.coefficients(span);
+        let (lo, hi) = self.spline.domain();
+        let (t0, t1) = (from.clamp(lo, hi) - start, to.clamp(lo, hi) - start);
+        let mut out = [[0.0; MAX_AXES]; DEGREE];
+        for a in 0..self.spline.control[0].len() {
+            let [_, c1, c2, c3] = [c[0][a], c[1][a], c[2][a], c[3][a]];
+            let first = |t: f64| (c1 + t * (2.0 * c2 + t * 3.0 * c3)).abs();
+            let second = |t: f64| (2.0 * c2 + t * 6.0 * c3).abs();
+            let mut q1 = first(t0).max(first(t1));
+            if c3 != 0.0 {
+                let vertex = -c2 / (3.0 * c3);
+                if t0 < vertex && vertex < t1 {
+                    q1 = q1.max(first(vertex));
+                }
+            }
+            out[0][a] = q1;
+            out[1][a] = second(t0).max(second(t1));
+            out[2][a] = (6.0 * c3).abs();
+        }
+        out
+    }
+
+    /// The first knot of span `span` and the Taylor coefficients of its cubic about it, computed
+    /// once per span.
+    fn coefficients(&mut self, span: usize) -> (f64, [[f64; MAX_AXES]; DEGREE + 1]) {
+        let start = self.spline.knots[span];
+        match self.taylor {
+            Some((cached, c)) if cached == span => (start, c),
+            _ => {
+                let c = taylor(self.spline, span, start);
+                self.taylor = Some((span, c));
+                (start, c)
+            }
+        }
     }
 
     /// `u` clamped to the domain and its span, which the cursor keeps for the next search.
@@ -833,6 +866,56 @@ mod tests {
                             "order {k} axis {a} at {u}: {} vs {}", got[k][a], want[k][a]
                         );
                     }
+                }
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// The bounds of a stretch within one span are the largest magnitudes of its
+        /// derivatives: not below any value at dense samples (the first derivative's peak between
+        /// the ends included), and above the largest by no more than the samples can miss.
+        #[test]
+        fn the_derivative_bounds_of_a_stretch_are_its_largest_magnitudes(
+            steps in proptest::collection::vec(0.01..5.0_f64, 4..20),
+            coords in proptest::collection::vec(-500.0..500.0_f64, 3 * 20),
+            span in 0..20_usize,
+            ends in (0.0..1.0_f64, 0.0..1.0_f64),
+        ) {
+            let n = steps.len();
+            let params: Vec<f64> = steps.iter().scan(0.0, |u, s| { *u += s; Some(*u) }).collect();
+            let points: Vec<Joints> =
+                (0..n).map(|i| Joints::from_slice(&coords[3 * i..3 * i + 3])).collect();
+            let spline = interpolate(&points, &params).expect("fits");
+            let spans: Vec<usize> =
+                (DEGREE..spline.control.len()).filter(|&k| spline.knots[k + 1] > spline.knots[k]).collect();
+            let k = spans[span % spans.len()];
+            let (a, b) = (spline.knots[k], spline.knots[k + 1]);
+            let (from, to) = (a + (b - a) * ends.0.min(ends.1), a + (b - a) * ends.0.max(ends.1));
+            let bounds = spline.cursor().derivative_bounds(from, to);
+            const SAMPLES: usize = 2000;
+            let mut sampled = [[0.0_f64; 3]; DEGREE];
+            for i in 0..=SAMPLES {
+                let u = (from + (to - from) * i as f64 / SAMPLES as f64).clamp(a, b);
+                let d = weighted(&spline, k, &basis_derivatives(&spline.knots, k, u), [1.0; DEGREE + 1]);
+                for order in 0..DEGREE {
+                    for axis in 0..3 {
+                        sampled[order][axis] = sampled[order][axis].max(d[order + 1][axis].abs());
+                    }
+                }
+            }
+            // Between samples h apart the first derivative, a parabola of leading coefficient
+            // q_sss / 2, falls at most q_sss / 2 × (h / 2)² below its peak.
+            let h = (to - from) / SAMPLES as f64;
+            for axis in 0..3 {
+                let miss = [0.5 * bounds[2][axis] * (0.5 * h).powi(2), 0.0, 0.0];
+                for order in 0..DEGREE {
+                    let (got, want) = (bounds[order][axis], sampled[order][axis]);
+                    let rounding = 1e-9 * want.max(1.0);
+                    proptest::prop_assert!(
+                        got >= want - rounding && got <= want + miss[order] + rounding,
+                        "order {} axis {axis} over {from}..{to}: {got} vs sampled {want}", order + 1
+                    );
                 }
             }
         }

@@ -8,7 +8,8 @@
 //!   the contour tolerance as in the inverse-time model.
 //! - On B-spline output ([`Maker`] with curves) each run of feed moves is the spline the emitter
 //!   writes (the same fit, [`postpro_kin::bspline`]), its parameter the tip's chord length. Each
-//!   knot span is cut into pieces whose caps take the derivatives at their worst over the piece:
+//!   knot span is cut into pieces whose caps take the derivatives at their exact worst over the
+//!   piece (the span's cubic: the first derivative's peak at an end or its vertex):
 //!   the speed at 0.8 × paper 003's quick bound
 //!   `ṡ ≤ min(F, Vmax/|q_s|, sqrt(Amax/|q_ss|), cbrt(Jmax/|q_sss|))`, then the acceleration and
 //!   jerk of `s` left to each axis once the curvature terms at that speed are paid. These caps
@@ -275,8 +276,9 @@ impl Maker {
         // Data interval `d` ends at data point d + 1: block start + d.
         for d in 0..params.len() - 1 {
             let block = start + d;
-            // Four pieces per data interval, also cut at the knots: within a knot span the
-            // third derivative is constant and the second linear, so their worst is at the ends.
+            // Four pieces per data interval, also cut at the knots: within a knot span each axis
+            // is one cubic, whose derivatives' largest magnitudes over a piece are exact
+            // (`Cursor::derivative_bounds`).
             const PIECES: usize = 4;
             let (s0, s1) = (params[d], params[d + 1]);
             let mut cuts: Vec<f64> = (0..=PIECES).map(|k| s0 + (s1 - s0) * k as f64 / PIECES as f64).collect();
@@ -312,22 +314,17 @@ fn curve_piece(
 ) -> Piece {
     let axes = &machine.axes;
     let cnc = &machine.cnc;
-    // The largest |q_s|, |q_ss|, |q_sss| of each axis over the probes.
-    let mut worst = [[0.0_f64; 3]; MAX_AXES];
-    let worst = &mut worst[..axes.len()];
-    let mut tip_rate: f64 = 0.0;
-    const PROBES: usize = 6;
-    // Probes just inside the ends: the derivatives of the span the piece lies in.
+    // The largest |q_s|, |q_ss|, |q_sss| of each axis over the piece.
+    let [q1, q2, q3] = cursor.derivative_bounds(from, to);
+    let worst: [[f64; 3]; MAX_AXES] = std::array::from_fn(|a| [q1[a], q2[a], q3[a]]);
+    let worst = &worst[..axes.len()];
+    // The tip's rate along the parameter (the forward kinematics' derivative along `q_s`) at the
+    // ends and the middle: the parameter is the tip's chord length, so the rate is near 1 and
+    // varies slowly. The ends just inside: the span the piece lies in.
     let inset = 1e-9 * (to - from);
-    for p in 0..=PROBES {
-        let s = (from + (to - from) * p as f64 / PROBES as f64).clamp(from + inset, to - inset);
+    let mut tip_rate: f64 = 0.0;
+    for s in [from + inset, 0.5 * (from + to), to - inset] {
         let d = cursor.derivatives(s);
-        for (a, w) in worst.iter_mut().enumerate() {
-            for order in 0..3 {
-                w[order] = w[order].max(d[order + 1][a].abs());
-            }
-        }
-        // The tip's rate along the parameter: the forward kinematics' derivative along `q_s`.
         tip_rate = tip_rate.max(kin.forward_rate(&d[0], &d[1]).tip.norm());
     }
     let mut piece = Piece {
@@ -339,12 +336,8 @@ fn curve_piece(
         acceleration_limit: Limit::TangentialAcceleration,
         jerk_limit: Limit::TangentialJerk,
     };
-    // The first derivative is quadratic within a span: a margin for its peak between probes.
-    for w in worst.iter_mut() {
-        w[0] *= 1.01;
-    }
     // Paper 003's quick bound, at 0.8 of it so that the curvature terms leave room.
-    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&*worst).enumerate() {
+    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(worst).enumerate() {
         let index = index as u16;
         let mut bound = f64::INFINITY;
         let mut why = Limit::Velocity(index);
@@ -361,7 +354,7 @@ fn curve_piece(
         tighten(&mut piece.velocity, &mut piece.velocity_limit, 0.8 * bound, why);
     }
     let v = piece.velocity;
-    for (index, (axis, [q1, q2, _])) in axes.iter().zip(&*worst).enumerate() {
+    for (index, (axis, [q1, q2, _])) in axes.iter().zip(worst).enumerate() {
         if *q1 <= 0.0 {
             continue;
         }
@@ -370,7 +363,7 @@ fn curve_piece(
         tighten(&mut piece.acceleration, &mut piece.acceleration_limit, a_cap, Limit::Acceleration(index));
     }
     let a = piece.acceleration.min(1e12);
-    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(&*worst).enumerate() {
+    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(worst).enumerate() {
         if *q1 <= 0.0 {
             continue;
         }
