@@ -151,39 +151,37 @@ impl Cursor<'_> {
         let axes = self.spline.control[0].len();
         let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
         for a in 0..axes {
-            let [c0, c1, c2, c3] = [c[0][a], c[1][a], c[2][a], c[3][a]];
-            out[0][a] = c0 + t * (c1 + t * (c2 + t * c3));
-            out[1][a] = c1 + t * (2.0 * c2 + t * 3.0 * c3);
-            out[2][a] = 2.0 * c2 + t * 6.0 * c3;
-            out[3][a] = 6.0 * c3;
+            let d = cubic([c[0][a], c[1][a], c[2][a], c[3][a]], t);
+            for (order, value) in d.into_iter().enumerate() {
+                out[order][a] = value;
+            }
         }
         out.map(|values| Joints::from_array(values, axes))
     }
 
-    /// The largest magnitudes of the first, second and third derivatives of each axis over
+    /// Per axis, the largest magnitudes of its first, second and third derivatives over
     /// `from..=to`, a stretch within one knot span (the span of its middle; both clamped to
     /// the domain): exact for the span's cubic, whose first derivative peaks at an end or at its
     /// parabola's vertex, the second at an end, and whose third is constant.
-    pub fn derivative_bounds(&mut self, from: f64, to: f64) -> [[f64; MAX_AXES]; DEGREE] {
+    pub fn derivative_bounds(&mut self, from: f64, to: f64) -> [[f64; DEGREE]; MAX_AXES] {
         let (_, span) = self.locate(0.5 * (from + to));
         let (start, c) = self.coefficients(span);
         let (lo, hi) = self.spline.domain();
         let (t0, t1) = (from.clamp(lo, hi) - start, to.clamp(lo, hi) - start);
-        let mut out = [[0.0; MAX_AXES]; DEGREE];
-        for a in 0..self.spline.control[0].len() {
-            let [_, c1, c2, c3] = [c[0][a], c[1][a], c[2][a], c[3][a]];
-            let first = |t: f64| (c1 + t * (2.0 * c2 + t * 3.0 * c3)).abs();
-            let second = |t: f64| (2.0 * c2 + t * 6.0 * c3).abs();
-            let mut q1 = first(t0).max(first(t1));
+        let mut out = [[0.0; DEGREE]; MAX_AXES];
+        for (a, bounds) in out.iter_mut().enumerate().take(self.spline.control[0].len()) {
+            let coefficients = [c[0][a], c[1][a], c[2][a], c[3][a]];
+            let [_, first0, second0, third] = cubic(coefficients, t0);
+            let [_, first1, second1, _] = cubic(coefficients, t1);
+            let mut first = first0.abs().max(first1.abs());
+            let [_, _, c2, c3] = coefficients;
             if c3 != 0.0 {
                 let vertex = -c2 / (3.0 * c3);
                 if t0 < vertex && vertex < t1 {
-                    q1 = q1.max(first(vertex));
+                    first = first.max(cubic(coefficients, vertex)[1].abs());
                 }
             }
-            out[0][a] = q1;
-            out[1][a] = second(t0).max(second(t1));
-            out[2][a] = (6.0 * c3).abs();
+            *bounds = [first, second0.abs().max(second1.abs()), third.abs()];
         }
         out
     }
@@ -209,6 +207,11 @@ impl Cursor<'_> {
         self.span = find_span(&self.spline.knots, self.spline.control.len(), u, self.span);
         (u, self.span)
     }
+}
+
+/// The value and first three derivatives at `t` of the cubic `c0 + c1 t + c2 t² + c3 t³`.
+fn cubic([c0, c1, c2, c3]: [f64; DEGREE + 1], t: f64) -> [f64; DEGREE + 1] {
+    [c0 + t * (c1 + t * (c2 + t * c3)), c1 + t * (2.0 * c2 + t * 3.0 * c3), 2.0 * c2 + t * 6.0 * c3, 6.0 * c3]
 }
 
 /// The span of `u` among the `n` control points: the last `k` in `DEGREE..n` with
@@ -828,7 +831,11 @@ mod tests {
     /// The derivatives straight from the basis functions' derivatives at `u` (The NURBS Book
     /// A2.3), what the Taylor form of each span must equal.
     fn derivatives_at(spline: &Spline, u: f64) -> [[f64; MAX_AXES]; DEGREE + 1] {
-        let span = find_span(&spline.knots, spline.control.len(), u, DEGREE);
+        derivatives_in(spline, find_span(&spline.knots, spline.control.len(), u, DEGREE), u)
+    }
+
+    /// The same, of the cubic of span `span` (at its end knot: that span's, not the next one's).
+    fn derivatives_in(spline: &Spline, span: usize, u: f64) -> [[f64; MAX_AXES]; DEGREE + 1] {
         weighted(spline, span, &basis_derivatives(&spline.knots, span, u), [1.0; DEGREE + 1])
     }
 
@@ -897,7 +904,7 @@ mod tests {
             let mut sampled = [[0.0_f64; 3]; DEGREE];
             for i in 0..=SAMPLES {
                 let u = (from + (to - from) * i as f64 / SAMPLES as f64).clamp(a, b);
-                let d = weighted(&spline, k, &basis_derivatives(&spline.knots, k, u), [1.0; DEGREE + 1]);
+                let d = derivatives_in(&spline, k, u);
                 for order in 0..DEGREE {
                     for axis in 0..3 {
                         sampled[order][axis] = sampled[order][axis].max(d[order + 1][axis].abs());
@@ -908,9 +915,9 @@ mod tests {
             // q_sss / 2, falls at most q_sss / 2 × (h / 2)² below its peak.
             let h = (to - from) / SAMPLES as f64;
             for axis in 0..3 {
-                let miss = [0.5 * bounds[2][axis] * (0.5 * h).powi(2), 0.0, 0.0];
+                let miss = [0.5 * bounds[axis][2] * (0.5 * h).powi(2), 0.0, 0.0];
                 for order in 0..DEGREE {
-                    let (got, want) = (bounds[order][axis], sampled[order][axis]);
+                    let (got, want) = (bounds[axis][order], sampled[order][axis]);
                     let rounding = 1e-9 * want.max(1.0);
                     proptest::prop_assert!(
                         got >= want - rounding && got <= want + miss[order] + rounding,

@@ -876,7 +876,6 @@ impl Observer for Observing<'_> {
         c.results[block].time = t - c.entered[block];
         // The step's part in the piece it leaves; a dwell after it belongs to no step.
         c.split.piece = piece;
-        let end = c.piece_start[piece] + c.piece_length[piece];
         c.part(seen.owner, t, end);
         c.split.speeds.push((block, v));
         c.split.u = end;

@@ -22,8 +22,8 @@
 use crate::moves::{BlockKind, Blocks, SplineRun};
 use crate::plan::{Limit, Piece, TrackBuilder};
 use crate::window::Window;
+use postpro_kin::Kinematics;
 use postpro_kin::bspline::{Cursor, Spline};
-use postpro_kin::{Kinematics, MAX_AXES};
 use postpro_machine::model::Machine;
 
 /// What a piece of a track is, for rebuilding the axis motion from the parameter.
@@ -315,8 +315,7 @@ fn curve_piece(
     let axes = &machine.axes;
     let cnc = &machine.cnc;
     // The largest |q_s|, |q_ss|, |q_sss| of each axis over the piece.
-    let [q1, q2, q3] = cursor.derivative_bounds(from, to);
-    let worst: [[f64; 3]; MAX_AXES] = std::array::from_fn(|a| [q1[a], q2[a], q3[a]]);
+    let worst = cursor.derivative_bounds(from, to);
     let worst = &worst[..axes.len()];
     // The tip's rate along the parameter (the forward kinematics' derivative along `q_s`) at the
     // ends and the middle: the parameter is the tip's chord length, so the rate is near 1 and

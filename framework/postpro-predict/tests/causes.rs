@@ -43,14 +43,20 @@ fn modes(machine: &Machine) -> Vec<Mode> {
     modes
 }
 
-/// The prediction of the motion program of `text` in `mode`.
+/// The prediction of the motion program of `text` in `mode` by `planner`.
 fn predict(text: &str, name: &str, machine: &Machine, mode: Mode, planner: Planner) -> Prediction {
+    predict_with(text, name, machine, mode, Options { planner, ..Options::default() })
+}
+
+/// The prediction of the motion program of `text` in `mode` with `options` (the spline model
+/// where the mode writes splines).
+fn predict_with(text: &str, name: &str, machine: &Machine, mode: Mode, options: Options) -> Prediction {
     let (path, solved) = read(name, text, machine);
     let kin = postpro_kin::solver_for(machine);
     let program = postpro_motion::study(&path, &solved, kin.as_ref(), mode).expect("the motion program builds");
     let timing = if mode.feeds_the_tip() { Timing::TipFeed } else { Timing::AxisFeed };
     let blocks = postpro_predict::blocks(&program, machine, timing);
-    let options = Options { planner, splines: mode == Mode::Bspline, ..Options::default() };
+    let options = Options { splines: mode == Mode::Bspline, ..options };
     postpro_predict::predict(&blocks, kin.as_ref(), &options)
 }
 
@@ -272,14 +278,8 @@ fn the_feed_path_below_the_threshold_counts_the_steps_that_cross_junctions() {
                 .unwrap();
         for m in machines {
             let machine = machine(m);
-            let (path, solved) = read(name, &text, &machine);
-            let kin = postpro_kin::solver_for(&machine);
             for mode in modes(&machine) {
-                let program = postpro_motion::study(&path, &solved, kin.as_ref(), mode).expect("builds");
-                let timing = if mode.feeds_the_tip() { Timing::TipFeed } else { Timing::AxisFeed };
-                let blocks = postpro_predict::blocks(&program, &machine, timing);
-                let options = Options { samples: true, splines: mode == Mode::Bspline, ..Options::default() };
-                let p = postpro_predict::predict(&blocks, kin.as_ref(), &options);
+                let p = predict_with(&text, name, &machine, mode, Options { samples: true, ..Options::default() });
                 let t = p.totals();
                 let expected = length_below_from_samples(&p, t.threshold);
                 // A step across a junction is compared at the speeds of both its ends; the samples
