@@ -383,6 +383,9 @@ pub struct Stepper {
     k: usize,
     /// The first counted piece at or after `k`, as an ordinal of [`Track::counted`].
     counted: usize,
+    /// The window's end seen from piece `.0`, once the track held it: it stays while the motion
+    /// is on that piece ([`Self::window_end`]).
+    window_end_from: Option<(usize, usize)>,
     /// Cruising on this piece at its cap, nothing ahead within braking reach while the steps end
     /// under `.2`: the piece, where the steps taken at once end (`.1`, before the piece's end:
     /// the step that crosses it is taken alone, to report the crossing) and `.2`; the steps up
@@ -423,6 +426,7 @@ impl Stepper {
             a: 0.0,
             k: 0,
             counted: 0,
+            window_end_from: None,
             cruise: None,
             started: false,
             done: false,
@@ -547,7 +551,9 @@ impl Stepper {
             }
             // The last piece of the track, once it is complete.
             let n = track.complete.then(|| track.len());
-            let Some((j, limit, ahead)) = self.choose(track) else { return Progress::Waiting };
+            let Some(Choice { j, limit, ahead, next: (u1, v1, a1) }) = self.choose(track) else {
+                return Progress::Waiting;
+            };
             tally!(STEPS);
             self.count_step();
             let piece = track.pieces[self.k];
@@ -571,7 +577,6 @@ impl Stepper {
                 self.t += track.junctions[self.k - 1].dwell;
                 continue;
             }
-            let (u1, v1, a1) = advance(self.u, self.v, self.a, j, self.h);
             // Crossings of junctions within this step.
             let mut crossed_stop = false;
             while self.k < self.ends.end() && u1 >= self.ends[self.k] {
@@ -719,6 +724,11 @@ impl Stepper {
         if track.window == usize::MAX {
             return Some(track.complete.then(|| track.len() - 1));
         }
+        if let Some((from, end)) = self.window_end_from
+            && from == self.k
+        {
+            return Some(Some(end));
+        }
         let counted = &track.counted;
         // The counted pieces the track forgot are behind the motion: past them at once (the
         // motion may have crossed many since the last look, cruising or stopping).
@@ -727,11 +737,13 @@ impl Stepper {
             self.counted += 1;
         }
         let ordinal = self.counted + track.window - 1;
-        match counted.get(ordinal) {
-            Some(&end) => Some(Some(end)),
-            None if track.complete => Some(Some(track.len() - 1)),
-            None => self.wait(Need::Counted(ordinal)),
-        }
+        let end = match counted.get(ordinal) {
+            Some(&end) => end,
+            None if track.complete => track.len() - 1,
+            None => return self.wait(Need::Counted(ordinal)),
+        };
+        self.window_end_from = Some((self.k, end));
+        Some(Some(end))
     }
 
     /// What of `need` the track does not hold yet (`None`: all of it), the junctions taken in
@@ -755,9 +767,9 @@ impl Stepper {
         None
     }
 
-    /// The largest jerk for the next step, what bounds it, and whether that is a cap ahead;
-    /// `None` when the track does not hold enough yet to say.
-    fn choose(&mut self, track: &Track) -> Option<(f64, Limit, bool)> {
+    /// The largest jerk for the next step and what comes with it; `None` when the track does not
+    /// hold enough yet to say.
+    fn choose(&mut self, track: &Track) -> Option<Choice> {
         let h = self.h;
         let (u, v, a) = (self.u, self.v, self.a);
         if !track.known(self.k) {
@@ -769,7 +781,7 @@ impl Stepper {
         if let Some((_, beyond)) = self.cruising(here)
             && u + v * h < beyond
         {
-            return Some((0.0, here.velocity_limit, false));
+            return Some(Choice { j: 0.0, limit: here.velocity_limit, ahead: false, next: advance(u, v, a, 0.0, h) });
         }
         // The caps of every piece this step may enter: the jerk and acceleration chosen hold
         // for the whole step, on whichever piece it ends.
@@ -817,7 +829,7 @@ impl Stepper {
         let floor = (-p.jerk).max((-track.pieces[self.k].acceleration - a) / h);
         if j <= floor {
             self.cruise = None;
-            return Some((floor, limit, false));
+            return Some(Choice { j: floor, limit, ahead: false, next: advance(u, v, a, floor, h) });
         }
         // Junctions ahead, within the window and within braking reach: decided on a copy of the
         // state, committed once the track held all it needed.
@@ -963,8 +975,20 @@ impl Stepper {
             let beyond = comes_into_reach.unwrap_or(f64::NEG_INFINITY);
             (self.k, beyond.min(self.ends[self.k]) - v * h, beyond - v * h)
         });
-        Some((j, limit, ahead))
+        Some(Choice { j, limit, ahead, next: (u1, v1, a1) })
     }
+}
+
+/// The next step as [`Stepper::choose`] decides it.
+struct Choice {
+    /// The jerk over the step.
+    j: f64,
+    /// What bounds it.
+    limit: Limit,
+    /// True when that is a cap ahead.
+    ahead: bool,
+    /// The parameter, its speed and acceleration after the step.
+    next: (f64, f64, f64),
 }
 
 /// Far more steps on one piece than any motion takes (a cruise taken in one go counts once):

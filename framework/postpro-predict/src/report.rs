@@ -621,12 +621,11 @@ impl Collector {
     }
 
     /// Adds to [`Self::length_below`] the tip length from where it was last compared to parameter
-    /// `u` on `piece`, when the parameter speed `v` reached there is below the threshold (a feed
-    /// block's; nothing when the motion is on another piece than that start: a junction between
-    /// is compared as it is crossed).
-    fn below(&mut self, blocks: &Blocks, owner: &Window<usize>, u: f64, piece: usize, v: f64) {
+    /// `u` on `piece` (of `block`), when the parameter speed `v` reached there is below the
+    /// threshold (a feed block's; nothing when the motion is on another piece than that start: a
+    /// junction between is compared as it is crossed).
+    fn below(&mut self, blocks: &Blocks, block: usize, u: f64, piece: usize, v: f64) {
         let Some((u0, p0)) = self.below_from else { return };
-        let block = owner[piece];
         if p0 == piece && blocks.kind[block] == BlockKind::Feed {
             let tip_feed = self.scale[block];
             if v * tip_feed / blocks.feed[block] < self.threshold {
@@ -680,10 +679,23 @@ impl Collector {
         self.split.parts.push((block, beyond));
     }
 
-    /// Gives the parts of the step that ends with `s` to its cause.
-    fn account(&mut self, seen: &Seen<'_>, s: &Sample) {
+    /// Gives the parts of the step that ends with `s` (on `block`) to its cause.
+    fn account(&mut self, seen: &Seen<'_>, s: &Sample, block: usize) {
         if !self.split.started {
             (self.split.t, self.split.u, self.split.piece, self.split.started) = (s.t, s.u, s.piece, true);
+            return;
+        }
+        if self.split.parts.is_empty() && self.split.piece == s.piece {
+            // Most steps: no junction crossed since the last sample, the step is one part on the
+            // piece it ends on (the same sums as below, without the lists).
+            let beyond = (s.t - self.split.t) - (s.u - self.split.u) * self.rate[block];
+            (self.split.t, self.split.u) = (s.t, s.u);
+            let cause = self.cause(seen.track, s);
+            self.share(seen.blocks, block, cause, beyond);
+            if !asked_for(cause) {
+                let low = &mut self.min_speed_between_stops[block];
+                *low = low.min(s.v);
+            }
             return;
         }
         self.part(seen.owner, s.t, s.u);
@@ -837,11 +849,11 @@ impl Observer for Observing<'_> {
         let (c, seen) = (&mut *self.collector, self.seen);
         let blocks = seen.blocks;
         c.count += s.periods;
-        c.account(seen, s);
         let block = seen.owner[s.piece];
+        c.account(seen, s, block);
         c.reach(blocks, block, s.v, s.limit);
         // The tip length covered since the last sample or junction, below the threshold or not.
-        c.below(blocks, seen.owner, s.u, s.piece, s.v);
+        c.below(blocks, block, s.u, s.piece, s.v);
         c.below_from = Some((s.u, s.piece));
         let (u0, t0) = (c.last_sample.unwrap_or(s.u), c.last_time);
         c.last_sample = Some(s.u);
@@ -871,7 +883,7 @@ impl Observer for Observing<'_> {
         let block = seen.owner[piece];
         c.reach(seen.blocks, block, v, limit);
         let end = c.piece_start[piece] + c.piece_length[piece];
-        c.below(seen.blocks, seen.owner, end, piece, v);
+        c.below(seen.blocks, block, end, piece, v);
         c.below_from = Some((end, piece + 1));
         c.results[block].time = t - c.entered[block];
         // The step's part in the piece it leaves; a dwell after it belongs to no step.
