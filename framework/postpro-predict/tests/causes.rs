@@ -20,6 +20,16 @@ const CASES: [(&str, &[&str]); 4] = [
     ("manta-5axis.cl", &["nutating"]),
 ];
 
+/// The folder of the bundled examples.
+fn examples() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl")
+}
+
+/// The text of the bundled example `name`.
+fn example(name: &str) -> String {
+    std::fs::read_to_string(examples().join(name)).unwrap()
+}
+
 fn machine(name: &str) -> Machine {
     Registry::builtin().expect("the built-ins load").find(name).expect("built in").machine.clone()
 }
@@ -104,7 +114,7 @@ fn accounting(p: &Prediction, period: f64, splines: bool, case: &str) -> Vec<Str
 
 #[test]
 fn the_causes_add_up_to_the_time_lost_on_every_example_planner_and_mode() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl");
+    let dir = examples();
     let mut files: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -140,9 +150,7 @@ fn the_causes_add_up_to_the_time_lost_on_every_example_planner_and_mode() {
 fn g1_output_on_a_five_axis_machine_loses_what_f_on_the_axes_costs() {
     // In G1 the CNC reads F as the feed of the linear axes: the program itself asks for another
     // time than the CL file's feed, and that difference is a cause of its own.
-    let text =
-        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl/hypar-5axis.cl"))
-            .unwrap();
+    let text = example("hypar-5axis.cl");
     let mikron = machine("mikron");
     let g1 = predict(&text, "hypar-5axis.cl", &mikron, Mode::G1, Planner::InverseTime);
     let tip = predict(&text, "hypar-5axis.cl", &mikron, Mode::InverseTime, Planner::InverseTime);
@@ -214,9 +222,7 @@ fn a_corner_in_the_middle_of_a_pass_is_marked_with_what_it_costs() {
 
 #[test]
 fn marks_are_capped_per_operation_keeping_the_worst() {
-    let text =
-        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl/hypar-5axis.cl"))
-            .unwrap();
+    let text = example("hypar-5axis.cl");
     let maho = machine("maho600e");
     let p = predict(&text, "hypar-5axis.cl", &maho, Mode::G1, Planner::InverseTime);
     let all = p.marks(&MarkRules { max_per_operation: usize::MAX, ..MarkRules::default() });
@@ -273,9 +279,7 @@ fn the_feed_path_below_the_threshold_counts_the_steps_that_cross_junctions() {
     // (it left out every step that crossed one: 67.6 % of a G1 finishing path was 97 %, 5.0 % of
     // its B-spline program 41.7 %).
     for (name, machines) in CASES {
-        let text =
-            std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl").join(name))
-                .unwrap();
+        let text = example(name);
         for m in machines {
             let machine = machine(m);
             for mode in modes(&machine) {
@@ -293,6 +297,38 @@ fn the_feed_path_below_the_threshold_counts_the_steps_that_cross_junctions() {
             }
         }
     }
+}
+
+#[test]
+fn a_block_that_loses_nothing_to_an_exact_stop_reaches_its_lowest_feed_between_stops() {
+    // The slowdown marks quote the lowest feed of their blocks apart from the braking into and
+    // the acceleration out of exact stops: on a block where no time goes to one, that is the
+    // block's lowest feed, every step of it counted (the steps within a piece as well as those
+    // that cross a junction).
+    let (mut checked, mut blocks) = (0, 0);
+    for (name, machines) in CASES {
+        let text = example(name);
+        for m in machines {
+            let machine = machine(m);
+            for mode in modes(&machine) {
+                for planner in [Planner::InverseTime, Planner::Vpop] {
+                    let p = predict(&text, name, &machine, mode, planner);
+                    let away_from_stops: Vec<_> = (p.blocks.iter().enumerate())
+                        .filter(|(_, b)| b.kind == BlockKind::Feed && b.stop_lost == 0.0)
+                        .collect();
+                    (checked, blocks) = (checked + away_from_stops.len(), blocks + p.blocks.len());
+                    for (i, b) in away_from_stops {
+                        assert_eq!(
+                            b.min_feed_between_stops, b.min_feed,
+                            "{name} on {m}, {mode:?}, {planner:?}: block {i} (programmed {} mm/min)",
+                            b.programmed
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked * 2 > blocks, "{checked} of {blocks} blocks lose nothing to an exact stop");
 }
 
 fn failures_are_none(failures: Vec<String>) {
