@@ -675,8 +675,14 @@ impl Collector {
     /// `t`, in the piece the motion is in.
     fn part(&mut self, owner: &Window<usize>, t: f64, u: f64) {
         let block = owner[self.split.piece];
-        let beyond = (t - self.split.t) - (u - self.split.u) * self.rate[block];
+        let beyond = self.beyond(block, t, u);
         self.split.parts.push((block, beyond));
+    }
+
+    /// The time beyond the programmed one from the last point accounted for to parameter `u` at
+    /// time `t`, on `block`.
+    fn beyond(&self, block: usize, t: f64, u: f64) -> f64 {
+        (t - self.split.t) - (u - self.split.u) * self.rate[block]
     }
 
     /// Gives the parts of the step that ends with `s` (on `block`) to its cause.
@@ -688,7 +694,7 @@ impl Collector {
         if self.split.parts.is_empty() && self.split.piece == s.piece {
             // Most steps: no junction crossed since the last sample, the step is one part on the
             // piece it ends on (the same sums as below, without the lists).
-            let beyond = (s.t - self.split.t) - (s.u - self.split.u) * self.rate[block];
+            let beyond = self.beyond(block, s.t, s.u);
             (self.split.t, self.split.u) = (s.t, s.u);
             let cause = self.cause(seen.track, s);
             self.share(seen.blocks, block, cause, beyond);
