@@ -4,22 +4,29 @@
 /// Writes `value` with `decimals` digits after the point into `out` (a `String`, a
 /// `CompactString`): one write.
 pub fn push_number<W: std::fmt::Write + ?Sized>(out: &mut W, value: f64, decimals: usize, plus: bool) {
-    // Writing to a string in memory cannot fail: the results are not looked at.
-    let mut buffer = [0; 32];
-    let _ = match fixed(&mut buffer, value, decimals, plus) {
-        Some(text) => out.write_str(text),
-        // Out of the exact range (no machine coordinate is): the standard formatting.
-        None => write!(out, "{value:.decimals$}"),
-    };
+    // Writing to a string in memory cannot fail: the result is not looked at.
+    with_number(value, decimals, plus, |text| {
+        let _ = out.write_str(text);
+    });
 }
 
-/// The text of `value` with `decimals` (at most 9) digits after the point, built in `buffer`;
-/// `None` out of the exact range of the integer arithmetic.
+/// `value` as [`push_number`] writes it, lent to `f` from a buffer on the stack: for a text
+/// compared before it is kept.
+pub(crate) fn with_number<R>(value: f64, decimals: usize, plus: bool, f: impl FnOnce(&str) -> R) -> R {
+    let mut buffer = [0; 32];
+    match fixed(&mut buffer, value, decimals, plus) {
+        Some(text) => f(text),
+        // Out of the exact range (no machine coordinate is): the standard formatting.
+        None => f(&format!("{value:.decimals$}")),
+    }
+}
+
+/// The text of `value` with `decimals` (at most 9) digits after the point, built in `buffer`
+/// from its right end; `None` out of the exact range of the integer arithmetic.
 fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Option<&str> {
-    const POWERS: [u64; 10] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
+    const POWERS: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
     let decimals = decimals.min(9);
-    let divisor = POWERS[decimals];
-    let scaled = value.abs() * divisor as f64;
+    let scaled = value.abs() * POWERS[decimals];
     if scaled.is_nan() || scaled >= 9.0e15 {
         return None;
     }
@@ -27,35 +34,33 @@ fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Opti
     // truncation and the fraction left are exact.
     let whole = scaled as u64;
     let units = whole + u64::from(scaled - whole as f64 >= 0.5);
-    if units >= 9_000_000_000_000_000 {
-        return None;
-    }
-    // At most a sign, 16 digits, the point and 9 decimals.
-    let mut length = 0;
-    let mut put = |bytes: &[u8]| {
-        buffer[length..length + bytes.len()].copy_from_slice(bytes);
-        length += bytes.len();
+    // At most a sign, 16 digits, the point and 9 decimals, written from the last digit back.
+    let mut start = buffer.len();
+    let mut put = |byte: u8| {
+        start -= 1;
+        buffer[start] = byte;
     };
-    if units == 0 {
-        if plus {
-            put(b"+");
-        }
-    } else if value < 0.0 {
-        put(b"-");
-    } else if plus {
-        put(b"+");
+    let mut rest = units;
+    for _ in 0..decimals {
+        put(b'0' + (rest % 10) as u8);
+        rest /= 10;
     }
-    let mut digits = itoa::Buffer::new();
-    put(digits.format(units / divisor).as_bytes());
     if decimals > 0 {
-        put(b".");
-        let fraction = digits.format(units % divisor);
-        for _ in fraction.len()..decimals {
-            put(b"0");
-        }
-        put(fraction.as_bytes());
+        put(b'.');
     }
-    std::str::from_utf8(&buffer[..length]).ok()
+    loop {
+        put(b'0' + (rest % 10) as u8);
+        rest /= 10;
+        if rest == 0 {
+            break;
+        }
+    }
+    if units != 0 && value < 0.0 {
+        put(b'-');
+    } else if plus {
+        put(b'+');
+    }
+    std::str::from_utf8(&buffer[start..]).ok()
 }
 
 /// `value` rounded to `decimals` digits, without trailing zeros (`6.096`, `10`, `0.5`): for

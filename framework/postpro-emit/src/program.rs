@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::EmitError;
 use crate::dialect::{Dialect, TcpOrientation, TcpStyle};
-use crate::format::push_number;
+use crate::format::{push_number, with_number};
 use compact_str::CompactString;
 
 pub use postpro_motion::Mode;
@@ -952,10 +952,14 @@ impl<'a> Formatter<'a> {
     fn axis_words(&mut self, joints: &Joints, axes: AxisSet, all: bool) -> Vec<Word> {
         let mut words = Vec::with_capacity(self.machine.axes.len());
         for i in (0..self.machine.axes.len()).filter(|&i| axes.contains(i)) {
-            let word = self.word(&self.machine.axes[i].letter, self.axis_value(i, joints[i]), self.decimals(i));
-            if all || self.written[i].as_deref() != Some(word.text.as_str()) {
-                self.written[i] = Some(word.text.clone());
-                words.push(word);
+            let value = self.axis_value(i, joints[i]);
+            // The text is looked at on the stack: most axes of a block are as last written.
+            let changed = with_number(value, self.decimals(i), self.dialect.explicit_plus, |text| {
+                (all || self.written[i].as_deref() != Some(text)).then(|| CompactString::from(text))
+            });
+            if let Some(text) = changed {
+                self.written[i] = Some(text.clone());
+                words.push(Word { letter: self.machine.axes[i].letter.as_str().into(), value, text });
             }
         }
         words

@@ -1075,19 +1075,28 @@ impl Streaming<'_, '_, '_> {
     /// the dialect numbers them), counting the lines; returns the number of its first block, if
     /// numbered.
     fn write(&mut self, text: &str, n: Option<u32>) -> Result<Option<u64>, EmitError> {
-        self.lines += text.matches('\n').count() + 1;
+        let breaks = text.bytes().filter(|&b| b == b'\n').count();
+        self.lines += breaks + 1;
         let (out, dialect) = (&mut self.out, self.dialect);
         if !dialect.numbered_blocks {
-            for line in text.lines() {
+            let (numbers_later, unplaceable) = (self.numbers_later, &mut self.unplaceable);
+            let mut look = |line: &str| {
                 check_length(line, dialect)?;
                 // A line that starts with an `N` word not of its block (a verbatim insert's) would
                 // be numbered anew as the body is copied.
-                if self.numbers_later
+                if numbers_later
                     && let Some((number, _)) = leading_number(line.as_bytes())
                     && n.is_none_or(|n| number < u64::from(n) || number >= u64::from(n) + u64::from(NUMBER_STEP))
                 {
-                    self.unplaceable = true;
+                    *unplaceable = true;
                 }
+                Ok(())
+            };
+            // Nearly every block is one line: looked at whole.
+            if breaks == 0 {
+                look(text)?;
+            } else {
+                text.lines().try_for_each(look)?;
             }
             self.blocks_numbered += u64::from(n.is_some());
             self.bytes += text.len() as u64 + 1;
