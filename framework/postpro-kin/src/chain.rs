@@ -14,7 +14,7 @@
 use nalgebra::{Isometry3, Matrix3, Point3, Unit, UnitQuaternion, Vector3};
 use postpro_machine::model::{AxisKind, Machine};
 
-use crate::pose::{Joints, Pose, PoseRate};
+use crate::pose::{Bend, Joints, Pose, PoseRate};
 use crate::solver::{Kinematics, Solution, Solutions};
 
 /// Below this, a vector is treated as zero (unit vectors; about 1e-6° of angle).
@@ -65,6 +65,29 @@ impl Moving {
         self.tip = r.q + arm;
         self.axis = rodrigues(&r.omega, &self.axis, s, c);
         self.axis_rate = rodrigues(&r.omega, &self.axis_rate, s, c) + r.omega.cross(&self.axis) * w;
+    }
+}
+
+/// A point (or a unit vector: `reach` 1) carried through the chain's turns along a linear move
+/// of the axes, `t` from 0 to 1: bounds of its distance from the centre of the next turn and of
+/// its first and second derivatives.
+#[derive(Clone, Copy, Debug, Default)]
+struct Carried {
+    reach: f64,
+    rate: f64,
+    bend: f64,
+}
+
+impl Carried {
+    /// After a turn by `Δθ = ±w` about a centre at most `reach` away: `(q + R(x − q))'' =
+    /// R''(x − q) + 2R'ẋ + Rẍ`, with `|R'v| ≤ w|v|` and `|R''v| ≤ w²|v|`. The distance from the
+    /// centre stays.
+    fn turned(self, w: f64) -> Carried {
+        Carried {
+            reach: self.reach,
+            rate: self.rate + w * self.reach,
+            bend: self.bend + w * w * self.reach + 2.0 * w * self.rate,
+        }
     }
 }
 
@@ -260,6 +283,38 @@ impl Kinematics for Chain {
         }
         let inverse = &self.part_origin_inverse;
         Pose { tip: inverse * tip, axis: Unit::new_normalize(inverse.rotation * axis) }
+    }
+
+    fn bend(&self, a: &Joints, b: &Joints) -> Option<Bend> {
+        let turn = |i: usize| (b[i] - a[i]).abs();
+        // The tip stays within `tip.reach` of `centre`; the tool axis is a unit vector.
+        let (mut centre, mut tip, mut axis) =
+            (self.tip0, Carried::default(), Carried { reach: 1.0, ..Carried::default() });
+        for r in self.tool.iter().rev() {
+            tip.reach += (centre - r.q).norm();
+            centre = r.q;
+            (tip, axis) = (tip.turned(turn(r.index)), axis.turned(turn(r.index)));
+        }
+        // The linear axes carry the tip along a line, `start + t·step`.
+        let (mut start, mut step) = (Vector3::zeros(), Vector3::zeros());
+        for &i in &self.linear {
+            let direction = self.machine.axes[i].direction.into_inner();
+            start += direction * a[i];
+            step += direction * (b[i] - a[i]);
+        }
+        tip.rate += step.norm();
+        let mut line = Some((start, step));
+        for r in &self.part {
+            tip.reach += match line.take() {
+                // A segment's farthest point from `q` is one of its ends.
+                Some((start, step)) => (centre + start - r.q).norm().max((centre + start + step - r.q).norm()),
+                None => (centre - r.q).norm(),
+            };
+            centre = r.q;
+            (tip, axis) = (tip.turned(turn(r.index)), axis.turned(turn(r.index)));
+        }
+        // The part frame's isometry keeps every length.
+        Some(Bend { tip: tip.bend, axis: axis.bend })
     }
 
     fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {

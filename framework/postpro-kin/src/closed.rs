@@ -19,7 +19,7 @@ use nalgebra::{Matrix3, Point3, Unit, Vector3};
 use postpro_machine::model::{ClosedForm, Machine};
 
 use crate::chain::{Chain, wrap};
-use crate::pose::{Joints, Pose, PoseRate};
+use crate::pose::{Bend, Joints, Pose, PoseRate};
 use crate::solver::{Kinematics, Solution, Solutions};
 
 /// Which machine axis the tilt turns about.
@@ -153,6 +153,11 @@ impl Kinematics for TableTableClosedForm {
             tip: Point3::from(f.rotation * tip.coords + f.translation),
             axis: Unit::new_normalize(f.rotation * axis),
         }
+    }
+
+    fn bend(&self, a: &Joints, b: &Joints) -> Option<Bend> {
+        // The same forward kinematics as the chain's.
+        self.chain.bend(a, b)
     }
 
     fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {

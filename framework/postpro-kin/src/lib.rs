@@ -31,7 +31,7 @@ pub use policy::{
     BranchGraph, Choice, Collected, Decision, Jump, Noted, Placer, Policy, SolveError, Solved, Step, StepKind,
     StepSink, Target, choose,
 };
-pub use pose::{Joints, MAX_AXES, Pose, PoseRate};
+pub use pose::{Bend, Joints, MAX_AXES, Pose, PoseRate};
 pub use solver::{Kinematics, Solution, Solutions, solver_for};
 pub use tool::{LengthFrom, Stretches, ToolLength, ToolPlacer, solve_with_tools, tool_changes};
 
@@ -134,6 +134,75 @@ mod tests {
                     assert!(exact.tip.norm() > 0.1 && exact.axis.norm() > 0.1);
                 }
             }
+        }
+    }
+
+    /// The bend bound on every layout, with the rotary centres far apart (each turn's distance
+    /// from the last centre counts): the tip and axis stay within `bend · t(1 − t)/2` of their
+    /// chords, and the bound is not loose by more than a few times (a bound that said nothing
+    /// would pass the first check).
+    #[test]
+    fn the_bend_bounds_the_tool_on_every_layout() {
+        let apart = testing::machine(
+            &[("A", [1.0, 0.0, 0.0], [0.0, 150.0, -90.0], true), ("C", [0.0, 0.0, 1.0], [-260.0, 40.0, 120.0], true)],
+            SolverKind::Generic,
+        );
+        let heads = testing::machine(
+            &[("C", [0.0, 0.0, 1.0], [90.0, -60.0, 500.0], false), ("A", [1.0, 0.0, 0.0], [0.0, 40.0, 260.0], false)],
+            SolverKind::Generic,
+        );
+        // With the tip on A's centre: C alone turning (C's distance is A's centre's), A turning
+        // slowly as Y moves (the rate's cross term), and fast as Y moves far (the segment's end).
+        let on_a = Point3::new(0.0, 150.0, -90.0) - apart.chain.tool_tip();
+        let from = Joints::from_slice(&[on_a.x, on_a.y, on_a.z, 0.0, 0.0]);
+        let to = |d: [f64; 5]| Joints::from_slice(&std::array::from_fn::<f64, 5, _>(|i| from[i] + d[i]));
+        let cases = [to([0.0, 0.0, 0.0, 0.0, 1.0]), to([0.0, 100.0, 0.0, 0.01, 0.0]), to([0.0, 300.0, 0.0, 2.0, 0.0])];
+        let chain = Chain::new(apart.clone());
+        for b in cases {
+            let bend = chain.bend(&from, &b).expect("a chain bounds its bend");
+            let (pa, pb) = (chain.forward(&from), chain.forward(&b));
+            for n in 1..32 {
+                let t = f64::from(n) / 32.0;
+                let off = (chain.forward(&from.lerp(&b, t)).tip.coords - pa.tip.coords.lerp(&pb.tip.coords, t)).norm();
+                assert!(off <= bend.tip * t * (1.0 - t) / 2.0 + 1e-9, "tip {off} at {t} to {b:?}: {bend:?}");
+            }
+        }
+        let chains = [
+            Chain::new(testing::mikron(SolverKind::Generic)),
+            Chain::new(testing::maho(SolverKind::Generic)),
+            Chain::new(testing::head_table()),
+            Chain::new(testing::nutating()),
+            Chain::new(apart),
+            Chain::new(heads),
+        ];
+        for chain in &chains {
+            let longer = ToolLength::new(chain, chain.machine().chain.tool_length + 120.0);
+            let mut tightest = f64::INFINITY;
+            for kin in [chain as &dyn Kinematics, &longer] {
+                for k in 0..40 {
+                    let s = f64::from(k) * 0.37;
+                    let a =
+                        Joints::from_slice(&[40.0 * s.cos(), 30.0 - s, 9.0 * s.sin(), 0.9 * s.sin(), 2.0 * s.cos()]);
+                    let size = f64::from(k % 8 + 1) / 8.0;
+                    let d = [60.0 * size, -25.0 * size, 40.0 * size, 0.8 * size * s.cos(), -1.1 * size];
+                    let b = Joints::from_slice(&std::array::from_fn::<f64, 5, _>(|i| a[i] + d[i]));
+                    let bend = kin.bend(&a, &b).expect("a chain bounds its bend");
+                    let (pa, pb) = (kin.forward(&a), kin.forward(&b));
+                    let mut worst: f64 = 0.0;
+                    for n in 1..32 {
+                        let t = f64::from(n) / 32.0;
+                        let p = kin.forward(&a.lerp(&b, t));
+                        let off = (p.tip.coords - pa.tip.coords.lerp(&pb.tip.coords, t)).norm();
+                        let turned = (p.axis.into_inner() - pa.axis.into_inner().lerp(&pb.axis.into_inner(), t)).norm();
+                        let room = t * (1.0 - t) / 2.0;
+                        assert!(off <= bend.tip * room + 1e-9, "tip {off} at {t}: {bend:?}");
+                        assert!(turned <= bend.axis * room + 1e-12, "axis {turned} at {t}: {bend:?}");
+                        worst = worst.max(off / room);
+                    }
+                    tightest = tightest.min(bend.tip / worst);
+                }
+            }
+            assert!(tightest < 4.0, "{}: the bound is at best {tightest} times the bend", chain.machine().name);
         }
     }
 

@@ -284,6 +284,17 @@ fn deviation_at(kin: &dyn Kinematics, a: &Step, b: &Step, samples: &[f64]) -> f6
         .fold(0.0, f64::max)
 }
 
+/// How far a step's tip may be off its pose: the placing verifies it of the program's steps
+/// (`Placer::verify`), and the points added here are solved for their own poses.
+const TIP_RESIDUAL: f64 = 1e-6;
+
+/// True when the kinematics' bound of the tip's bend keeps the move `a → b` within half the
+/// tolerance of its segment, its ends' residuals included: no sample can find it out of
+/// tolerance, so none is taken.
+fn provably_within(kin: &dyn Kinematics, a: &Step, b: &Step, tolerance: f64) -> bool {
+    kin.bend(&a.joints, &b.joints).is_some_and(|bend| bend.tip / 8.0 + TIP_RESIDUAL <= 0.5 * tolerance)
+}
+
 /// One subdivision: its shape, scratch and the points it inserts.
 struct Split<'a> {
     shape: &'a mut Shape,
@@ -349,6 +360,9 @@ impl Split<'_> {
         // Near the pole the axes turn unevenly along a piece: its deviation is sampled finer.
         let samples: &[f64] = if self.end_poles.is_some() { &SAMPLES_NEAR_POLE } else { &SAMPLES };
         let split = self.shape.split(|| {
+            if provably_within(kin, a, b, tolerance) {
+                return false;
+            }
             let d = deviation_at(kin, a, b, samples);
             if within(d) {
                 return false;

@@ -21,6 +21,17 @@ pub struct PoseRate {
     pub axis: Vector3<f64>,
 }
 
+/// Upper bounds on how the tool bends while the axes move linearly between two sets of values
+/// (`t` from 0 to 1): the largest `|d²tip/dt²|` (mm) and `|d²axis/dt²|`. The tip never strays
+/// more than `tip / 8` from the chord of its ends (the linear interpolant's error bound).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bend {
+    /// Bound of the tip's second derivative, mm.
+    pub tip: f64,
+    /// Bound of the tool axis's second derivative.
+    pub axis: f64,
+}
+
 /// The most axes a machine may have: three linear and two rotary (3-, 4- and 5-axis machines).
 pub const MAX_AXES: usize = 5;
 

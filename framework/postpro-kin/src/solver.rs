@@ -5,7 +5,7 @@ use postpro_machine::model::{Machine, SolverKind};
 
 use crate::chain::Chain;
 use crate::closed::TableTableClosedForm;
-use crate::pose::{Joints, Pose, PoseRate};
+use crate::pose::{Bend, Joints, Pose, PoseRate};
 
 /// One inverse solution.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,6 +80,14 @@ pub trait Kinematics: Send + Sync {
     /// (their tool axis is whatever those angles give): the linear axes from the forward
     /// kinematics.
     fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints;
+
+    /// Upper bounds of how the tool bends in the part frame while the axes move linearly from
+    /// `a` to `b`: what proves a move straight enough to need no check. `None` (the default)
+    /// where the kinematics gives none; the moves are then checked point by point.
+    fn bend(&self, a: &Joints, b: &Joints) -> Option<Bend> {
+        let _ = (a, b);
+        None
+    }
 
     /// How fast the tool tip and the tool axis move in the part frame when the axes move from
     /// `joints` at `rates`: the derivative of [`Self::forward`] along `rates`. By default a

@@ -11,7 +11,7 @@ use postpro_machine::model::Machine;
 
 use crate::linearize::{Linearizer, Linearizing, Shape};
 use crate::policy::{BranchGraph, Collected, Placer, Policy, SolveError, Solved, StepSink, Target};
-use crate::pose::{Joints, Pose, PoseRate};
+use crate::pose::{Bend, Joints, Pose, PoseRate};
 use crate::solver::{Kinematics, Solutions};
 use crate::targets;
 
@@ -42,6 +42,12 @@ impl Kinematics for ToolLength<'_> {
     fn forward(&self, joints: &Joints) -> Pose {
         let p = self.inner.forward(joints);
         Pose { tip: p.tip - p.axis.into_inner() * self.extra, axis: p.axis }
+    }
+
+    fn bend(&self, a: &Joints, b: &Joints) -> Option<Bend> {
+        // The tip is `extra` along the axis from the inner tip.
+        let inner = self.inner.bend(a, b)?;
+        Some(Bend { tip: inner.tip + self.extra.abs() * inner.axis, axis: inner.axis })
     }
 
     fn forward_rate(&self, joints: &Joints, rates: &Joints) -> PoseRate {
