@@ -1056,11 +1056,12 @@ impl<'a> Formatter<'a> {
             FeedWord::PerRevolution(f) => ("per-revolution", f / self.unit, self.dialect.feed_decimals.max(4)),
         };
         self.set_feed_mode(mode);
-        let mut text = String::new();
-        push_number(&mut text, value, decimals, false);
-        if !always && self.last_feed.as_deref() == Some(text.as_str()) {
+        // Looked at on the stack: the F word of most blocks is the last one's.
+        let Some(text) = with_number(value, decimals, false, |text| {
+            (always || self.last_feed.as_deref() != Some(text)).then(|| text.to_string())
+        }) else {
             return (None, None);
-        }
+        };
         self.last_feed = Some(text.clone());
         (Some(text), note.map(|t| clean_comment(self.dialect, t)))
     }
