@@ -387,9 +387,17 @@ impl Kinematics for Chain {
 
 /// An angle in (−π, π].
 pub(crate) fn wrap(angle: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let w = angle - t * (angle / t).round();
-    if w <= -std::f64::consts::PI { w + t } else { w }
+    let w = angle - whole_turns(angle);
+    if w <= -std::f64::consts::PI { w + std::f64::consts::TAU } else { w }
+}
+
+/// The whole turns nearest to `angle` (rad): `2π · round(angle / 2π)`, the same value, without
+/// the library call where it is none (the baseline x86-64 has no rounding instruction; nearly
+/// every angle is within half a turn).
+pub(crate) fn whole_turns(angle: f64) -> f64 {
+    let turns = angle / std::f64::consts::TAU;
+    let nearest = if turns.abs() < 0.5 { 0.0_f64.copysign(turns) } else { turns.round() };
+    std::f64::consts::TAU * nearest
 }
 
 /// The angle between a vector and the nearer direction of an axis line, if it is defined.

@@ -137,6 +137,27 @@ mod tests {
         }
     }
 
+    /// `whole_turns` is `2π · round(angle / 2π)` to the bit: signed zeros, the half turns and
+    /// either side of them, many turns, and what is not a number.
+    #[test]
+    fn whole_turns_are_the_rounded_turns_to_the_bit() {
+        use std::f64::consts::{PI, TAU};
+        let mut angles = vec![0.0, -0.0, 1e-300, -1e-300, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
+        for edge in [PI, 3.0 * PI, 0.5 * TAU, 1e6 * TAU + PI] {
+            for a in [edge, -edge] {
+                angles.extend([a, a.next_up(), a.next_down()]);
+            }
+        }
+        angles.extend((-4000..4000).map(|k| f64::from(k) * 0.00731));
+        for a in angles {
+            let (got, expected) = (chain::whole_turns(a), TAU * (a / TAU).round());
+            assert!(
+                got.to_bits() == expected.to_bits() || got.is_nan() && expected.is_nan(),
+                "{a}: {got} vs {expected}"
+            );
+        }
+    }
+
     /// The bend bound on every layout, with the rotary centres far apart (each turn's distance
     /// from the last centre counts): the tip and axis stay within `bend · t(1 − t)/2` of their
     /// chords, and the bound is not loose by more than a few times (a bound that said nothing

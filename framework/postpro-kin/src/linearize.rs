@@ -10,6 +10,7 @@ use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 use postpro_cl::Span;
 
 use crate::bits::Bits;
+use crate::chain::whole_turns;
 use crate::policy::{Collected, Noted, Policy, Step, StepKind, StepSink, nearest_the_pole, passes_pole, pole_distance};
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
@@ -561,7 +562,7 @@ fn branch_of(kin: &dyn Kinematics, step: &Step, cone: f64, sols: &mut Solutions)
     }
     let axes = &kin.machine().axes;
     let rotary = || (0..axes.len()).filter(|&i| axes[i].kind == postpro_machine::model::AxisKind::Rotary);
-    let turn = |d: f64| (d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round()).abs();
+    let turn = |d: f64| (d - whole_turns(d)).abs();
     (sols.iter().find(|s| rotary().all(|i| turn(s.joints[i] - step.joints[i]) < 1e-6)).map(|s| s.branch), distance)
 }
 
@@ -585,7 +586,7 @@ fn on_branch(
 fn turned_near(kin: &dyn Kinematics, mut joints: Joints, near: &Joints, except: Option<usize>) -> Joints {
     for (i, axis) in kin.machine().axes.iter().enumerate() {
         if axis.kind == postpro_machine::model::AxisKind::Rotary && Some(i) != except {
-            joints[i] += std::f64::consts::TAU * ((near[i] - joints[i]) / std::f64::consts::TAU).round();
+            joints[i] += whole_turns(near[i] - joints[i]);
         }
     }
     joints

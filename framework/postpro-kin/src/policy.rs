@@ -28,6 +28,7 @@ use postpro_cl::Span;
 use postpro_machine::model::{AxisKind, BranchPreference, PolicyDefaults, Travel};
 
 use crate::bits::Bits;
+use crate::chain::whole_turns;
 use crate::linearize::slerp;
 use crate::pose::{Joints, Pose};
 use crate::solver::{Kinematics, Solutions};
@@ -706,7 +707,7 @@ impl Unwinding {
 
 /// `value` plus whole turns: the one nearest to `near` within the travel.
 fn unwrap_near(value: f64, near: f64, travel: &Travel) -> Option<f64> {
-    let v = value + TAU * ((near - value) / TAU).round();
+    let v = value + whole_turns(near - value);
     if travel.contains(v) {
         return Some(v);
     }
