@@ -188,7 +188,8 @@ impl Kinematics for TableTableClosedForm {
         let a = self.chain.part_rotation() * pose.axis.into_inner();
         let k = a.z.clamp(-1.0, 1.0);
         let alpha = k.acos();
-        let pole = (self.second, k.abs().min(1.0).acos());
+        // The angle from the pole's nearer end: α itself where k ≥ 0 (the same value, computed once).
+        let pole = (self.second, if k >= 0.0 { alpha } else { k.abs().min(1.0).acos() });
         let n = self.chain.machine().axes.len();
         // sin α ≥ 0 on branch 0; (sin γ, cos γ) from the tool axis, no further trigonometry.
         let sin_alpha = (1.0 - k * k).max(0.0).sqrt();
