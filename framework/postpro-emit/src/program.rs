@@ -953,7 +953,8 @@ impl<'a> Formatter<'a> {
         let mut words = Vec::with_capacity(self.machine.axes.len());
         for i in (0..self.machine.axes.len()).filter(|&i| axes.contains(i)) {
             let value = self.axis_value(i, joints[i]);
-            // The text is looked at on the stack: most axes of a block are as last written.
+            // The text is looked at on the stack: a word is made only where it changed (the
+            // rotary axes of a 3+2 program never do).
             let changed = with_number(value, self.decimals(i), self.dialect.explicit_plus, |text| {
                 (all || self.written[i].as_deref() != Some(text)).then(|| CompactString::from(text))
             });
