@@ -463,8 +463,21 @@ pub(crate) struct Collector {
     /// The dwell spent at the start of each block.
     dwell_in: Window<f64>,
     split: Split,
-    /// Per operation, the time lost by cause.
-    causes: Vec<BTreeMap<Limit, (f64, usize)>>,
+    /// Per operation, the time lost and the blocks held back, by cause (a few causes each: a
+    /// list, in the order they first came).
+    causes: Vec<Vec<(Limit, (f64, usize))>>,
+}
+
+/// The seconds and blocks of `limit` in an operation's list of causes, added at its end when new.
+fn cause_entry(causes: &mut Vec<(Limit, (f64, usize))>, limit: Limit) -> &mut (f64, usize) {
+    let at = match causes.iter().position(|(l, _)| *l == limit) {
+        Some(at) => at,
+        None => {
+            causes.push((limit, (0.0, 0)));
+            causes.len() - 1
+        }
+    };
+    &mut causes[at].1
 }
 
 /// True for what the program itself asks the motion to stop or turn at: an exact stop, a plunge
@@ -574,7 +587,7 @@ impl Collector {
             self.path_end += blocks.length[i];
         }
         while self.causes.len() < blocks.operations.len() {
-            self.causes.push(BTreeMap::new());
+            self.causes.push(Vec::new());
         }
         while self.piece_start.end() < track.len() {
             let p = self.piece_start.end();
@@ -757,10 +770,10 @@ impl Collector {
                 .map_or(Limit::Programmed, |(l, _)| *l);
             let causes = &mut self.causes[blocks.operation[block] as usize];
             for &(limit, seconds) in &shares {
-                causes.entry(limit).or_default().0 += seconds;
+                cause_entry(causes, limit).0 += seconds;
             }
             if result.cause != Limit::Programmed {
-                causes.entry(result.cause).or_default().1 += 1;
+                cause_entry(causes, result.cause).1 += 1;
             }
         }
         shares.clear();
@@ -801,7 +814,7 @@ impl Collector {
     /// The time lost by cause of operation `op` so far.
     pub(crate) fn causes_of(&self, op: usize) -> Vec<Cause> {
         self.causes.get(op).map_or_else(Vec::new, |causes| {
-            merge(causes.iter().map(|(&limit, &(seconds, blocks))| Cause { limit, seconds, blocks }))
+            merge(causes.iter().map(|&(limit, (seconds, blocks))| Cause { limit, seconds, blocks }))
         })
     }
 
