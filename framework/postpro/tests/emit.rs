@@ -4,6 +4,7 @@
 
 mod common;
 
+use std::ops::Deref;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -19,13 +20,31 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8(bytes.to_vec()).expect("UTF-8")
 }
 
+/// A scratch folder, removed when the test passes (kept to look into when it fails).
+struct Scratch(PathBuf);
+
+impl Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
 /// A scratch folder with a copy of a CL file of the repository.
-fn scratch(name: &str, cl: &str) -> PathBuf {
+fn scratch(name: &str, cl: &str) -> Scratch {
     let dir = std::env::temp_dir().join(format!("postpro-emit-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch folder");
     std::fs::copy(repo().join(cl), dir.join(Path::new(cl).file_name().expect("file name"))).expect("copy");
-    dir
+    Scratch(dir)
 }
 
 fn leftovers(dir: &Path) -> Vec<String> {
@@ -58,7 +77,6 @@ fn the_program_goes_next_to_the_cl_file_with_the_dialect_extension() {
     assert!(!text(&o.stderr).contains("not written"), "{}", text(&o.stderr));
     assert!(std::fs::read_to_string(dir.join("hypar-5axis.nc")).expect("fanuc program").contains("G93"));
     assert!(leftovers(&dir).is_empty());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -70,7 +88,6 @@ fn dash_writes_to_standard_output() {
     assert!(out.starts_with("%\n"), "{}", &out[..100]);
     assert!(out.contains("\nN10 "), "block numbers");
     assert!(!dir.join("hypar-5axis.ngc").exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -79,7 +96,6 @@ fn an_unknown_machine_suggests_the_nearest_names() {
     let o = postpro(&["-m", "mikorn", "hypar-5axis.cl"], &dir);
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("mikron"), "{}", text(&o.stderr));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -92,7 +108,6 @@ fn an_unreachable_pose_names_the_line_and_keeps_the_old_program() {
     assert!(err.contains("[unreachable.cl:6:1]") && err.contains("no solution within the travel"), "{err}");
     assert_eq!(std::fs::read_to_string(dir.join("unreachable.mpf")).expect("kept"), "old program\n");
     assert!(leftovers(&dir).is_empty());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -108,7 +123,6 @@ fn an_unwritable_output_is_an_error_without_a_partial_file() {
     assert_eq!(o.status.code(), Some(1));
     assert!(text(&o.stderr).contains("the linuxcnc dialect has no tcp mode"), "{}", text(&o.stderr));
     assert!(!dir.join("hypar-5axis.ngc").exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -118,7 +132,6 @@ fn the_output_never_overwrites_the_cl_file() {
     let o = postpro(&["-m", "maho", "part.nc"], &dir);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
     assert!(std::fs::read_to_string(dir.join("part.nc")).expect("kept").starts_with("$$ GENERATOR"));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A device or a named pipe as the output (`-o /dev/null`, a FIFO a shop's tooling reads) is
@@ -142,7 +155,6 @@ fn a_named_pipe_as_the_output_is_written_through_and_stays_a_pipe() {
     let read = reader.join().expect("the reader ends");
     assert!(read.starts_with("%\n") && read.trim_end().ends_with('%'), "the whole program through the pipe");
     assert!(leftovers(&dir).is_empty());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Where nothing in the program waits for the end of the prediction, the prediction pass writes
@@ -241,7 +253,7 @@ fn the_program_the_prediction_pass_writes_is_the_one_a_pass_of_its_own_writes() 
         }
     }
     assert!(commented >= 15, "{commented} cases with comments put in");
-    let left: Vec<String> = std::fs::read_dir(&dir)
+    let left: Vec<String> = std::fs::read_dir(&*dir)
         .expect("list")
         .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
         .filter(|n| n.starts_with('.'))
