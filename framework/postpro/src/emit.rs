@@ -410,7 +410,7 @@ pub(crate) fn write_atomically_with<E>(
         return out.flush().map_err(io);
     }
     let temp = beside(path, "tmp");
-    let result = std::fs::File::create(&temp).map_err(&io).and_then(|file| {
+    let result = create_scratch(&temp).map_err(&io).and_then(|file| {
         let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
         write(&mut out)?;
         let file = out.into_inner().map_err(|e| io(e.into_error()))?;
@@ -423,10 +423,58 @@ pub(crate) fn write_atomically_with<E>(
     result
 }
 
+/// Creates the scratch file `path` (one of [`beside`], or in the temporary folder), for reading
+/// and writing. It is created new: whatever stands at `path` is never opened, so that a link
+/// someone left there under the name (predictable: the process id) cannot make postpro truncate
+/// the file it points to. A file left by an earlier process of the same id is removed first.
+pub(crate) fn create_scratch(path: &Path) -> std::io::Result<std::fs::File> {
+    let create = || std::fs::OpenOptions::new().read(true).write(true).create_new(true).open(path);
+    match create() {
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+            std::fs::remove_file(path)?;
+            create()
+        }
+        created => created,
+    }
+}
+
 /// A file of postpro's own beside `path` (hidden, with this process's id and `suffix`): in the
 /// same folder, so that a rename over `path` is atomic.
 pub(crate) fn beside(path: &Path, suffix: &str) -> PathBuf {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().map_or_else(|| "program".into(), |n| n.to_string_lossy().into_owned());
     dir.join(format!(".{name}.postpro-{}.{suffix}", std::process::id()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A link planted under the scratch file's name (it is predictable) is replaced, never
+    /// followed: the file it points to keeps its contents.
+    #[test]
+    fn a_link_under_the_scratch_name_is_not_followed() {
+        let dir = std::env::temp_dir().join(format!("postpro-scratch-link-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("scratch folder");
+        let victim = dir.join("victim.txt");
+        std::fs::write(&victim, "keep me\n").expect("write");
+        let output = dir.join("part.nc");
+        std::os::unix::fs::symlink(&victim, beside(&output, "tmp")).expect("link");
+        write_atomically(&output, |out| {
+            out.write_all(b"%\nM30\n%\n").map_err(|e| EmitError::Io { message: e.to_string() })
+        })
+        .expect("written");
+        assert_eq!(std::fs::read_to_string(&victim).expect("read"), "keep me\n");
+        assert_eq!(std::fs::read_to_string(&output).expect("read"), "%\nM30\n%\n");
+        assert!(std::fs::symlink_metadata(&output).expect("there").file_type().is_file());
+        // A file of an earlier process of the same id goes too.
+        let scratch = dir.join("left.body");
+        std::os::unix::fs::symlink(&victim, &scratch).expect("link");
+        let mut file = create_scratch(&scratch).expect("created");
+        file.write_all(b"body").expect("write");
+        assert_eq!(std::fs::read_to_string(&victim).expect("read"), "keep me\n");
+        assert!(std::fs::symlink_metadata(&scratch).expect("there").file_type().is_file());
+        std::fs::remove_dir_all(&dir).expect("clean up");
+    }
 }

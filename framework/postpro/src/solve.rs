@@ -340,7 +340,7 @@ impl Rows {
     /// A scratch file in the temporary folder, with the header row.
     fn new(machine: &Machine) -> std::io::Result<Rows> {
         let path = std::env::temp_dir().join(format!("postpro-{}.solve.csv", std::process::id()));
-        let file = std::io::BufWriter::new(std::fs::File::create(&path)?);
+        let file = std::io::BufWriter::new(crate::emit::create_scratch(&path)?);
         let mut rows = Rows { file, path, index: 0, text: String::from("step,line,kind,rapid"), lines: None };
         for a in &machine.axes {
             let unit = if a.kind == AxisKind::Rotary { "deg" } else { "mm" };

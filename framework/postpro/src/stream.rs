@@ -1269,13 +1269,8 @@ impl ScratchFile {
         } else {
             crate::emit::beside(output, suffix)
         };
-        let file = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .open(&path)
-            .map_err(|e| Failure::Emit(EmitError::Io { message: e.to_string() }))?;
+        let file =
+            crate::emit::create_scratch(&path).map_err(|e| Failure::Emit(EmitError::Io { message: e.to_string() }))?;
         Ok(ScratchFile { path, file })
     }
 }
