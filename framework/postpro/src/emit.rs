@@ -453,6 +453,7 @@ mod tests {
     /// A link planted under the scratch file's name (it is predictable) is replaced, never
     /// followed: the file it points to keeps its contents.
     #[test]
+    #[cfg(unix)]
     fn a_link_under_the_scratch_name_is_not_followed() {
         let dir = std::env::temp_dir().join(format!("postpro-scratch-link-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
