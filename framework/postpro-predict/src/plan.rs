@@ -945,7 +945,28 @@ impl Stepper {
                 room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk) + 1e-9 * (1.0 + room.abs())
             };
             let slack = |jj: f64| slack_of(advance(u, v, a, jj, h));
+            // A junction the step itself crosses has no room left after it, so its slack is
+            // negative whatever the speed. Where its cap is the next piece's own, the step keeps
+            // the speed under it as it keeps the current piece's ([`velocity_cap_jerk`]); either
+            // way the speed must be within the cap from the crossing to the step's end.
+            let mut crossed_within_cap = false;
+            if at < u1 && !settled {
+                if track.pieces.get(m + 1).is_some_and(|next| next.velocity <= cap) {
+                    let jv = velocity_cap_jerk(v, a, cap, j_path, h);
+                    if jv < j && jv > floor {
+                        j = jv;
+                        limit = why;
+                        ahead = true;
+                        (u1, v1, a1) = advance(u, v, a, j, h);
+                        peak = peak_of(v1, a1, j_path);
+                    }
+                    crossed_within_cap = jv >= j && crossed_within(cap, at, (u, v, a), j, h, (v1, a1));
+                } else {
+                    crossed_within_cap = crossed_within(cap, at, (u, v, a), j, h, (v1, a1));
+                }
+            }
             if !settled
+                && !crossed_within_cap
                 && !surely_reached(at - u1, v1, a1, cap, a_path, j_path, p.jerk)
                 && let at_j = slack_of((u1, v1, a1))
                 && at_j < 0.0
@@ -1215,6 +1236,20 @@ fn surely_reached(room: f64, v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
     // acceleration (t ≥ 2A/J), J t²/4 before.
     let drop = if left >= 2.0 * amax / jmax { amax * (left - amax / jmax) } else { jmax * left * left / 4.0 };
     (top - w) * (1.0 + 1e-9) < drop * (1.0 - 1e-9)
+}
+
+/// True when a step from `(u, v, a)` at jerk `j` over `h` (ending at speed `v1` and
+/// acceleration `a1`) crosses parameter `at` with its speed at most `cap` from there to its end:
+/// the largest speed over that stretch is at one of its ends or where the acceleration passes
+/// through 0.
+fn crossed_within(cap: f64, at: f64, (u, v, a): (f64, f64, f64), j: f64, h: f64, (v1, a1): (f64, f64)) -> bool {
+    let tau = time_to(u, v, a, j, at, h);
+    let speed = |t: f64| v + a * t + j * t * t / 2.0;
+    let mut top = speed(tau).max(v1);
+    if j < 0.0 && a + j * tau > 0.0 && a1 < 0.0 {
+        top = top.max(speed(-a / j));
+    }
+    top <= cap
 }
 
 /// The time within `(0, h]` at which the parameter reaches `target`: Newton on the cubic,

@@ -276,12 +276,12 @@ impl Maker {
         // Data interval `d` ends at data point d + 1: block start + d.
         for d in 0..params.len() - 1 {
             let block = start + d;
-            // Four pieces per data interval, also cut at the knots: within a knot span each axis
-            // is one cubic, whose derivatives' largest magnitudes over a piece are exact
-            // (`Cursor::derivative_bounds`).
-            const PIECES: usize = 4;
+            // A few pieces per data interval ([`PIECES_PER_INTERVAL`]), also cut at the knots:
+            // within a knot span each axis is one cubic, whose derivatives' largest magnitudes
+            // over a piece are exact (`Cursor::derivative_bounds`).
+            let pieces = pieces_per_interval();
             let (s0, s1) = (params[d], params[d + 1]);
-            let mut cuts: Vec<f64> = (0..=PIECES).map(|k| s0 + (s1 - s0) * k as f64 / PIECES as f64).collect();
+            let mut cuts: Vec<f64> = (0..=pieces).map(|k| s0 + (s1 - s0) * k as f64 / pieces as f64).collect();
             while knot < spline.knots.len() && spline.knots[knot] <= s0 {
                 knot += 1;
             }
@@ -301,6 +301,21 @@ impl Maker {
         curves.start_block.push(start);
         self.last_line = None;
     }
+}
+
+/// The pieces each data interval of a spline is cut into. A piece's caps are the worst over it,
+/// so finer pieces predict a little less time (test
+/// `finer_pieces_never_lengthen_the_predicted_time`); four are within 0.4 % of sixteen on the
+/// bundled examples.
+const PIECES_PER_INTERVAL: usize = 4;
+
+/// [`PIECES_PER_INTERVAL`], or what a unit test sets.
+fn pieces_per_interval() -> usize {
+    #[cfg(test)]
+    if let Some(pieces) = tests::PIECES.with(std::cell::Cell::get) {
+        return pieces;
+    }
+    PIECES_PER_INTERVAL
 }
 
 /// The caps of the spline between parameters `from` and `to`.
@@ -400,6 +415,47 @@ fn tighten(cap: &mut f64, why: &mut Limit, candidate: f64, limit: Limit) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    thread_local! {
+        /// The pieces a data interval is cut into, when a test sets them.
+        pub(super) static PIECES: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
+    }
+
+    /// The predicted time of a bundled example in B-spline mode, with `pieces` a data interval.
+    fn predicted(file: &str, machine: &str, pieces: usize) -> f64 {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cl").join(file);
+        let text = std::fs::read_to_string(&path).expect("the example");
+        let source = postpro_cl::Source::new(file, text.as_str());
+        let cl = postpro_cl::read(&source);
+        let registry = postpro_machine::Registry::builtin().expect("the built-ins load");
+        let machine = registry.find(machine).expect("built in").machine.clone();
+        let kin = postpro_kin::solver_for(&machine);
+        let solved = postpro_kin::solve(kin.as_ref(), &cl, &machine.policy).expect("the example solves");
+        let mode = postpro_motion::Mode::Bspline;
+        let program = postpro_motion::study(&cl, &solved, kin.as_ref(), mode).expect("the motion program");
+        let blocks = crate::blocks(&program, &machine, crate::Timing::TipFeed);
+        let options = crate::Options { planner: crate::Planner::Vpop, splines: true, ..crate::Options::default() };
+        PIECES.with(|p| p.set(Some(pieces)));
+        let time = crate::predict(&blocks, kin.as_ref(), &options).totals().cycle_time;
+        PIECES.with(|p| p.set(None));
+        time
+    }
+
+    /// Cutting a spline into finer pieces never lengthens the predicted time: each piece's caps
+    /// are its worst, so finer ones allow as much or more. On the MAHO (8 ms), where a step
+    /// crosses several short pieces, the junctions it crossed used to brake it: bicubic took
+    /// 585.09 s with four pieces and 589.69 s with sixteen.
+    #[test]
+    fn finer_pieces_never_lengthen_the_predicted_time() {
+        for (file, machine) in
+            [("bicubic-5axis.cl", "maho600e"), ("hypar-5axis.cl", "maho600e"), ("hypar-5axis.cl", "mikron")]
+        {
+            let time = predicted(file, machine, PIECES_PER_INTERVAL);
+            let finer = predicted(file, machine, 4 * PIECES_PER_INTERVAL);
+            assert!(finer <= time * (1.0 + 1e-4), "{file} on {machine}: {time} s, {finer} s with finer pieces");
+            assert!(finer >= time * (1.0 - 5e-3), "{file} on {machine}: {time} s, {finer} s with finer pieces");
+        }
+    }
 
     #[test]
     fn forgetting_looks_at_each_segment_once() {
