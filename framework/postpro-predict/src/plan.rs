@@ -951,6 +951,8 @@ impl Stepper {
             // way the speed must be within the cap from the crossing to the step's end.
             let mut crossed_within_cap = false;
             if at < u1 && !settled {
+                // Whether the next piece's own cap, if this is it, holds at the jerk taken.
+                let mut kept = true;
                 if track.pieces.get(m + 1).is_some_and(|next| next.velocity <= cap) {
                     let jv = velocity_cap_jerk(v, a, cap, j_path, h);
                     if jv < j && jv > floor {
@@ -960,10 +962,9 @@ impl Stepper {
                         (u1, v1, a1) = advance(u, v, a, j, h);
                         peak = peak_of(v1, a1, j_path);
                     }
-                    crossed_within_cap = jv >= j && crossed_within(cap, at, (u, v, a), j, h, (v1, a1));
-                } else {
-                    crossed_within_cap = crossed_within(cap, at, (u, v, a), j, h, (v1, a1));
+                    kept = jv >= j;
                 }
+                crossed_within_cap = kept && crossed_within(cap, at, (u, v, a), j, h, (v1, a1));
             }
             if !settled
                 && !crossed_within_cap
