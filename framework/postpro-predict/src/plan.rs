@@ -838,7 +838,7 @@ impl Stepper {
         // the junction only asks that the acceleration be within its own when the motion gets
         // there (the speed carries over too: the junction's cap has it).
         let (mut a_path, mut j_path) = (p.acceleration, p.jerk);
-        let mut reach = reach_distance(v1, a1, 0.0, a_path, j_path, p.jerk);
+        let mut reach = scan_reach(v1, a1, a_path, j_path, p.jerk);
         // The reach only grows as the limits tighten along the scan: computed (with the state and
         // limits of the last tightening) only where it decides whether the scan goes on.
         let mut stale: Option<(f64, f64, f64, f64)> = None;
@@ -860,7 +860,7 @@ impl Stepper {
             let Some(&junction) = self.known.get(m) else {
                 // The scan goes on at least to a stop, the window's end, or a junction beyond the
                 // reach it has now (the reach only grows).
-                return self.wait(Need::Beyond { next: m, at: u1 + 1.25 * reach, last });
+                return self.wait(Need::Beyond { next: m, at: u1 + reach, last });
             };
             // The longest run starting here whose junctions would each be passed over, at once:
             // no stop, not the window's end, within the reach, and no cap the speed reaches or
@@ -871,7 +871,7 @@ impl Stepper {
                     && let Some(run) = runs.get(m / n)
                     && last.is_none_or(|last| m + n <= last)
                     && run.cap > 0.0
-                    && run.last_at - u1 <= 1.25 * reach
+                    && run.last_at - u1 <= reach
                 {
                     // The limits along the path once past the run (a junction that tightens them
                     // raises the peak for those after it: the test takes the run's end, the
@@ -904,15 +904,14 @@ impl Stepper {
                 peak = peak_of(v1, a1, j_path);
             }
             let at = junction.at;
-            // Beyond the braking reach nothing binds yet. Reaching a cap above 0 can take up to
-            // an eighth more room than stopping (jerk-limited braking to v0/3 from v0, or to
-            // A²/2J), hence the margin: a junction must be seen before its braking begins.
-            if at - u1 > 1.25 * reach {
+            // Beyond the reach ([`scan_reach`]) nothing binds yet: a junction must be seen
+            // before its braking begins.
+            if at - u1 > reach {
                 if let Some((v, a, a_limit, j_limit)) = stale.take() {
-                    reach = reach_distance(v, a, 0.0, a_limit, j_limit, p.jerk);
+                    reach = scan_reach(v, a, a_limit, j_limit, p.jerk);
                 }
-                if at - u1 > 1.25 * reach {
-                    comes_into_reach = Some(at - 1.25 * reach);
+                if at - u1 > reach {
+                    comes_into_reach = Some(at - reach);
                     break;
                 }
             }
@@ -939,10 +938,13 @@ impl Stepper {
             // The room left at the junction once the speed is within its cap, from the state
             // after jerk `jj`.
             // A state on the braking curve itself fits: the rounding of one step must not push it
-            // off (it would brake too hard, stop short and creep to the end).
+            // off (it would brake too hard, stop short and creep to the end). Nor must a step
+            // that ends a hair beyond it: the deceleration may still be easing at the junction
+            // if the next piece's jerk ends it within a period.
+            let late = track.pieces.get(m + 1).map_or(0.0, |next| h * (next.jerk / j_path).min(1.0));
             let slack_of = |(u1, v1, a1): (f64, f64, f64)| {
                 let room = at - u1;
-                room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk) + 1e-9 * (1.0 + room.abs())
+                room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk, late) + 1e-9 * (1.0 + room.abs())
             };
             let slack = |jj: f64| slack_of(advance(u, v, a, jj, h));
             // A junction the step itself crosses has no room left after it, so its slack is
@@ -1172,7 +1174,7 @@ fn velocity_cap_jerk(v: f64, a: f64, vmax: f64, jmax: f64, h: f64) -> f64 {
 /// The shortest distance in which the speed `v` with acceleration `a` can be brought to at most
 /// `w`, with `|ü| ≤ amax` and `|u⃛| ≤ jmax` (and `jnow` the jerk available to end an ongoing
 /// acceleration). 0 when the speed never exceeds `w`.
-pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow: f64) -> f64 {
+pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow: f64, late: f64) -> f64 {
     let jr = jmax.min(jnow);
     if a > 0.0 {
         // End the acceleration first.
@@ -1193,7 +1195,7 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
         let t = (d - amax) / jr;
         let v1 = v + a * t + jr * t * t / 2.0;
         let d1 = v * t + a * t * t / 2.0 + jr * t * t * t / 6.0;
-        return d1 + reach_distance(v1, -amax, w, amax, jmax, jnow);
+        return d1 + reach_distance(v1, -amax, w, amax, jmax, jnow, late);
     }
     let v_end = v - d * d / (2.0 * jmax);
     if v_end >= w {
@@ -1206,8 +1208,11 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
     } else if v_end >= -1e-9 * (1.0 + v) {
         // Easing the deceleration now already ends below the cap: the braking ends there, its
         // acceleration back to 0 (a junction is never crossed still braking hard for it, which
-        // the next block's jerk may not be able to end).
-        let t = d / jmax;
+        // the next block's jerk may not be able to end), or up to `late` after that, but not
+        // before the speed meets the cap (the first root of v − d t + J t²/2 = w).
+        let ended = d / jmax;
+        let meets = (d - (d * d - 2.0 * jmax * (v - w)).max(0.0).sqrt()) / jmax;
+        let t = (ended - late).max(meets);
         v * t + a * t * t / 2.0 + jmax * t * t * t / 6.0
     } else {
         // Braked too hard already: the speed reaches 0 before the deceleration can be ended.
@@ -1216,6 +1221,45 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
         let tau = (-a - disc.sqrt()) / jmax;
         v * tau + a * tau * tau / 2.0 + jmax * tau * tau * tau / 6.0
     }
+}
+
+/// How far ahead of the state a junction can bind: at least [`reach_distance`] to any cap
+/// `w ≥ 0` (the other arguments the same), so the scan ahead stops beyond it.
+///
+/// A jerk-limited speed change to `w` takes at most 9/8 of the distance of stopping from the same
+/// speed (the most, (4/3)·√(2/3) ≈ 1.089 times, is to a third of it). But where a deceleration
+/// is under way, the reach is the braking curve through the state less the part of it already
+/// behind, and that ratio does not hold for what is left: with the curve mostly behind, reaching
+/// a cap can take far more than stopping (1.29 times on a retract of `schruppen_1` on the
+/// Mikron: the scan, stopping at a quarter more, missed the cap, and the steps chattered between
+/// braking and easing). So the bound adds an eighth of the whole curve's distance to the reach
+/// of stopping; a quarter more than stopping, what the scan always took, is kept where larger.
+pub(crate) fn scan_reach(v: f64, a: f64, amax: f64, jmax: f64, jnow: f64) -> f64 {
+    let stop = reach_distance(v, a, 0.0, amax, jmax, jnow, 0.0);
+    (1.25 * stop).max(stop + braking_curve_distance(v, a, amax, jmax, jnow) / 8.0)
+}
+
+/// The distance of the whole speed change to 0 that [`reach_distance`] to 0 ends with (for a
+/// deceleration under way, the braking curve through the state, the part behind included);
+/// 0 where it ends with none (the speed reaches 0 while the deceleration eases).
+fn braking_curve_distance(v: f64, a: f64, amax: f64, jmax: f64, jnow: f64) -> f64 {
+    let jr = jmax.min(jnow);
+    if a > 0.0 {
+        let t = a / jr;
+        let v1 = v + a * t - jr * t * t / 2.0;
+        return speed_change(v1.max(0.0), 0.0, amax, jmax).0;
+    }
+    let d = -a;
+    if d > amax {
+        let t = (d - amax) / jr;
+        let v1 = v + a * t + jr * t * t / 2.0;
+        return braking_curve_distance(v1, -amax, amax, jmax, jnow);
+    }
+    let v_end = v - d * d / (2.0 * jmax);
+    if v_end < 0.0 {
+        return 0.0;
+    }
+    speed_change(v + d * d / (2.0 * jmax), 0.0, amax, jmax).0
 }
 
 /// True only where [`reach_distance`] (same arguments) is at most `room`: a test without a root,
@@ -1402,7 +1446,7 @@ mod tests {
     fn the_reach_distance_from_rest_is_the_speed_change() {
         let (amax, jmax) = (2500.0, 5000.0);
         for &(v, w) in &[(500.0, 0.0), (100.0, 20.0), (2000.0, 0.0)] {
-            let d = reach_distance(v, 0.0, w, amax, jmax, jmax);
+            let d = reach_distance(v, 0.0, w, amax, jmax, jmax, 0.0);
             assert!((d - speed_change(v, w, amax, jmax).0).abs() < 1e-9);
         }
     }
@@ -1410,8 +1454,8 @@ mod tests {
     #[test]
     fn braking_under_way_needs_less_distance_than_braking_from_cruise() {
         let (amax, jmax) = (2500.0, 5000.0);
-        let from_cruise = reach_distance(400.0, 0.0, 0.0, amax, jmax, jmax);
-        let under_way = reach_distance(400.0, -1000.0, 0.0, amax, jmax, jmax);
+        let from_cruise = reach_distance(400.0, 0.0, 0.0, amax, jmax, jmax, 0.0);
+        let under_way = reach_distance(400.0, -1000.0, 0.0, amax, jmax, jmax, 0.0);
         assert!(under_way < from_cruise);
         // Following a braking profile, the remaining distance is what it says.
         let p = Profile::rest_to_rest(1000.0, 400.0, amax, jmax);
@@ -1420,7 +1464,7 @@ mod tests {
             let t = t_end - 0.02 * k as f64;
             let s = p.at(t);
             if s.a < 0.0 {
-                let d = reach_distance(s.v, s.a, 0.0, amax, jmax, jmax);
+                let d = reach_distance(s.v, s.a, 0.0, amax, jmax, jmax, 0.0);
                 assert!((d - (1000.0 - s.s)).abs() < 1e-6, "at {t}: {d} vs {}", 1000.0 - s.s);
             }
         }
@@ -1511,7 +1555,7 @@ mod tests {
         // millimetre; the test is conservative, but not by more than half of it.
         let (amax, jmax) = (2500.0, 5000.0);
         for w in [40.0, 45.0, 49.0, 49.9] {
-            let reach = reach_distance(50.0, 0.0, w, amax, jmax, jmax);
+            let reach = reach_distance(50.0, 0.0, w, amax, jmax, jmax, 0.0);
             assert!(surely_reached(1.5 * reach, 50.0, 0.0, w, amax, jmax, jmax), "cap {w}: reach {reach}");
             assert!(!surely_reached(0.99 * reach, 50.0, 0.0, w, amax, jmax, jmax), "cap {w}: reach {reach}");
         }
@@ -1532,9 +1576,81 @@ mod tests {
         ) {
             // A cap under the speed: one above it needs no room.
             let w = v * lower;
-            let reach = reach_distance(v, a, w, amax, jmax, jnow);
+            let reach = reach_distance(v, a, w, amax, jmax, jnow, 0.0);
             proptest::prop_assert!(!surely_reached(reach * short, v, a, w, amax, jmax, jnow), "reach {}", reach);
         }
+
+        /// No cap is reached farther ahead than where the scan ahead stops looking.
+        #[test]
+        fn no_cap_binds_beyond_the_scan(
+            v in 0.0..2000.0_f64,
+            a in proptest::prop_oneof![proptest::strategy::Just(0.0), -5000.0..5000.0_f64],
+            lower in proptest::prop_oneof![0.0..1.0_f64, 0.2..0.5_f64],
+            amax in 1.0..10_000.0_f64,
+            jmax in 1.0..1e6_f64,
+            jnow in 1.0..1e6_f64,
+        ) {
+            let w = v * lower;
+            let reach = reach_distance(v, a, w, amax, jmax, jnow, 0.0);
+            let scanned = scan_reach(v, a, amax, jmax, jnow);
+            proptest::prop_assert!(reach <= scanned + 1e-12 * scanned.abs(), "reach {} beyond the scan's {}", reach, scanned);
+        }
+    }
+
+    #[test]
+    fn a_cap_reached_late_in_a_braking_under_way_is_in_the_scan() {
+        // The retract of `schruppen_1` on the Mikron, in programmed time (block 3007 and its
+        // junction into the retract): half way down a braking, reaching the cap needs 1.29 times
+        // the room of stopping.
+        let (v, a, amax, jmax, w) = (0.539_658, -11.155_729, 136.122_294, 272.244_587, 0.272_245);
+        let stop = reach_distance(v, a, 0.0, amax, jmax, jmax, 0.0);
+        let to_cap = reach_distance(v, a, w, amax, jmax, jmax, 0.0);
+        assert!(to_cap > 1.25 * stop, "{to_cap} against {stop}");
+        assert!(to_cap <= scan_reach(v, a, amax, jmax, jmax));
+    }
+
+    #[test]
+    fn a_braking_for_a_cap_eases_into_it_without_chattering() {
+        // The end of the same pass as a track (Mikron, 3 ms, programmed time): a corner at 0.78
+        // of the feed, two short blocks, the second ending in a cap of 0.272 where the retract
+        // starts, the retract to a stop. The motion comes out of the corner still braking.
+        let pieces = vec![
+            piece(0.3, 1.0, 148.459_424, 296.918_849),
+            piece(0.030_703, 1.0, 148.459_424, 296.918_849),
+            piece(0.027_077, 1.0, 136.122_294, 272.244_587),
+            piece(0.338_789, 1.0, 105.557_424, 251.327_200),
+        ];
+        let junction = |cap, limit| Junction { cap, limit, dwell: 0.0 };
+        let junctions = vec![
+            junction(0.777_697, Limit::Corner),
+            junction(0.777_697, Limit::Corner),
+            junction(0.272_245, Limit::Plunge),
+            junction(0.0, Limit::Stop),
+        ];
+        #[derive(Default)]
+        struct Steps {
+            jerks: Vec<(usize, f64)>,
+            crossings: Vec<(usize, f64)>,
+        }
+        impl Observer for Steps {
+            fn sample(&mut self, sample: &Sample) {
+                self.jerks.push((sample.piece, sample.j));
+            }
+            fn crossing(&mut self, piece: usize, _: f64, v: f64, _: Limit) {
+                self.crossings.push((piece, v));
+            }
+        }
+        let mut steps = Steps::default();
+        run(&Track::new(pieces, junctions, 10, 0.0), 0.003, &mut steps);
+        // Into the retract at its cap, not far under it (the scan that missed the cap crossed
+        // at 0.123: the steps braked, eased, braked again, and the braking overshot).
+        let into_retract = steps.crossings.iter().find(|c| c.0 == 2).map(|c| c.1);
+        assert!(into_retract.is_some_and(|v| v > 0.9 * 0.272_245), "crossed at {into_retract:?}");
+        // On the block before the retract the jerk brakes, then eases: it changes sign at
+        // most twice.
+        let jerks: Vec<f64> = steps.jerks.iter().filter(|s| s.0 == 2).map(|s| s.1).collect();
+        let changes = jerks.windows(2).filter(|w| w[0] * w[1] < 0.0).count();
+        assert!(changes <= 2, "{changes} changes of sign: {jerks:?}");
     }
 
     #[test]
