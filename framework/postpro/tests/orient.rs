@@ -14,6 +14,8 @@ use common::{files, number, postpro, repo, stderr, stdout};
 
 use serde_json::Value;
 
+/// The Mikron's interpolation period (s): the switching error of a predicted time.
+const MIKRON_PERIOD: f64 = 0.003;
 const EXAMPLE: &str = "examples/cl/hypar-3plus2.cl";
 /// The example's file name, as it is called inside a scratch folder.
 const CL: &str = "hypar-3plus2.cl";
@@ -204,8 +206,10 @@ fn the_table_points_every_ruling_and_the_whole_part_at_a_jerk_vertex() {
         assert!((7.0..=7.4).contains(&r.original.jerk), "the programmed set-up reaches 7.1–7.3 m/s³: {r:?}");
         assert_eq!((r.original.a, r.original.c), (0.0, 0.0), "programmed with the tool along +z: {r:?}");
         assert!((A_TRAVEL.0..=A_TRAVEL.1).contains(&r.best.a), "A within its travel: {r:?}");
-        // A single jerk-limited pass is faster with more jerk: its own set-up beats the original.
-        assert!(r.times[1] < r.times[0], "the path is faster at its vertex: {r:?}");
+        // A single jerk-limited pass is faster with more jerk: its own set-up beats the original,
+        // up to the interpolator's switching error of one period (the Mikron's 3 ms; the
+        // shortest rulings, 0.27 s, gain less than that).
+        assert!(r.times[1] < r.times[0] + MIKRON_PERIOD, "the path is faster at its vertex: {r:?}");
     }
     assert!(t.rows.windows(2).all(|w| w[0].line < w[1].line), "the paths follow the CL file");
     // The zig-zag: the rulings alternate in sense; the longest is the diagonal, in the middle.
