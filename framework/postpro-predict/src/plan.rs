@@ -1241,10 +1241,10 @@ pub(crate) fn reach_distance(v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
 /// a cap can take far more than stopping (1.29 times on a retract of `schruppen_1` on the
 /// Mikron: the scan, stopping at a quarter more, missed the cap, and the steps chattered between
 /// braking and easing). So the bound adds an eighth of the whole curve's distance to the reach
-/// of stopping; a quarter more than stopping, what the scan always took, is kept where larger.
+/// of stopping (at a constant speed, 9/8 of it).
 pub(crate) fn scan_reach(v: f64, a: f64, amax: f64, jmax: f64, jnow: f64) -> f64 {
     let stop = reach_distance(v, a, 0.0, amax, jmax, jnow, 0.0);
-    (1.25 * stop).max(stop + braking_curve_distance(v, a, amax, jmax, jnow) / 8.0)
+    stop + braking_curve_distance(v, a, amax, jmax, jnow) / 8.0
 }
 
 /// The distance of the whole speed change to 0 that [`reach_distance`] to 0 ends with (for a
