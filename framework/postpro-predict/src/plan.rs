@@ -946,7 +946,8 @@ impl Stepper {
             // off (it would brake too hard, stop short and creep to the end). Nor must a step
             // that ends a hair beyond it: the deceleration may still be easing at the junction
             // if the next piece's jerk ends it within a period.
-            let late = track.pieces.get(m + 1).map_or(0.0, |next| h * (next.jerk / j_path).min(1.0));
+            let next = track.pieces.get(m + 1);
+            let late = next.map_or(0.0, |next| h * (next.jerk / j_path).min(1.0));
             let slack_of = |(u1, v1, a1): (f64, f64, f64)| {
                 let room = at - u1;
                 room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk, late) + 1e-9 * (1.0 + room.abs())
@@ -960,7 +961,7 @@ impl Stepper {
             if at < u1 && !settled {
                 // Whether the next piece's own cap, if this is it, holds at the jerk taken.
                 let mut kept = true;
-                if track.pieces.get(m + 1).is_some_and(|next| next.velocity <= cap) {
+                if next.is_some_and(|next| next.velocity <= cap) {
                     let jv = velocity_cap_jerk(v, a, cap, j_path, h);
                     if jv < j && jv > floor {
                         j = jv;
@@ -1297,7 +1298,7 @@ fn surely_reached(room: f64, v: f64, a: f64, w: f64, amax: f64, jmax: f64, jnow:
 /// through 0.
 fn crossed_within(cap: f64, at: f64, (u, v, a): (f64, f64, f64), j: f64, h: f64, (v1, a1): (f64, f64)) -> bool {
     let tau = time_to(u, v, a, j, at, h);
-    let speed = |t: f64| v + a * t + j * t * t / 2.0;
+    let speed = |t: f64| advance(u, v, a, j, t).1;
     let mut top = speed(tau).max(v1);
     if j < 0.0 && a + j * tau > 0.0 && a1 < 0.0 {
         top = top.max(speed(-a / j));
@@ -1664,8 +1665,9 @@ mod tests {
         }
         let mut steps = Steps::default();
         run(&Track::new(pieces, junctions, 10, 0.0), 0.003, &mut steps);
-        // Into the retract at its cap, not far under it (the scan that missed the cap crossed
-        // at 0.123: the steps braked, eased, braked again, and the braking overshot).
+        // Into the retract at its cap, not far under it (a braking that had to end its easing
+        // before the junction crossed at 0.143: overshooting the braking curve by a step, it
+        // braked harder and harder to ease in ever less room).
         let into_retract = steps.crossings.iter().find(|c| c.0 == 2).map(|c| c.1);
         assert!(into_retract.is_some_and(|v| v > 0.9 * 0.272_245), "crossed at {into_retract:?}");
         // On the block before the retract the jerk brakes, then eases: it changes sign at
