@@ -1395,13 +1395,27 @@ mod tests {
     use super::*;
     use crate::profile::Profile;
 
-    struct Record(Vec<Sample>);
+    /// The samples and the crossings of junctions ((piece, time, speed)) of a motion.
+    #[derive(Default)]
+    struct Record(Vec<Sample>, Vec<(usize, f64, f64)>);
 
     impl Observer for Record {
         fn sample(&mut self, sample: &Sample) {
             self.0.push(*sample);
         }
-        fn crossing(&mut self, _: usize, _: f64, _: f64, _: Limit) {}
+        fn crossing(&mut self, piece: usize, t: f64, v: f64, _: Limit) {
+            self.1.push((piece, t, v));
+        }
+    }
+
+    /// The total time of the motion along `pieces` with the junctions capped at `caps` (the
+    /// last an exact stop), and its record.
+    fn stepped(pieces: Vec<Piece>, caps: &[f64], h: f64) -> (f64, Record) {
+        let limit = |cap: f64| if cap > 0.0 { Limit::Corner } else { Limit::Stop };
+        let junctions = caps.iter().map(|&cap| Junction { cap, limit: limit(cap), dwell: 0.0 }).collect();
+        let mut record = Record::default();
+        let t = run(&Track::new(pieces, junctions, 10, 0.0), h, &mut record);
+        (t, record)
     }
 
     fn piece(length: f64, v: f64, a: f64, j: f64) -> Piece {
@@ -1417,15 +1431,8 @@ mod tests {
     }
 
     fn single(length: f64, v: f64, a: f64, j: f64, h: f64) -> (f64, Vec<Sample>) {
-        let track = Track::new(
-            vec![piece(length, v, a, j)],
-            vec![Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 }],
-            10,
-            0.0,
-        );
-        let mut r = Record(Vec::new());
-        let t = run(&track, h, &mut r);
-        (t, r.0)
+        let (t, record) = stepped(vec![piece(length, v, a, j)], &[0.0], h);
+        (t, record.0)
     }
 
     /// A program of a fortnight at 3 ms (400 M periods, 4 000 blocks of 5 min each, crossed at
@@ -1468,11 +1475,11 @@ mod tests {
         };
         let exact = Profile::rest_to_rest(d, v, a, j).duration();
         let mut stepper = Stepper::new(h);
-        stepper.go(&track(), &mut Record(Vec::new()));
+        stepper.go(&track(), &mut Record::default());
         assert_eq!(stepper.abandoned(), 0);
         assert!((stepper.time(&track()) - exact).abs() < 1e-3 * exact);
         let mut stepper = Stepper { steps_per_piece: 1000, ..Stepper::new(h) };
-        assert_eq!(stepper.go(&track(), &mut Record(Vec::new())), Progress::Done);
+        assert_eq!(stepper.go(&track(), &mut Record::default()), Progress::Done);
         assert_eq!(stepper.abandoned(), 1);
         assert!(stepper.time(&track()) < 0.5 * exact);
     }
@@ -1579,34 +1586,15 @@ mod tests {
     /// Crossings of a two-piece track with a corner capped at `w` ((piece, time, speed)), and
     /// its total time.
     fn corner(d: f64, v: f64, a: f64, j: f64, w: f64, h: f64) -> (f64, Vec<(usize, f64, f64)>) {
-        struct Crossings(Vec<(usize, f64, f64)>);
-        impl Observer for Crossings {
-            fn sample(&mut self, _: &Sample) {}
-            fn crossing(&mut self, piece: usize, t: f64, v: f64, _: Limit) {
-                self.0.push((piece, t, v));
-            }
-            fn every_period(&self) -> bool {
-                false
-            }
-        }
-        let track = Track::new(
-            vec![piece(d, v, a, j); 2],
-            vec![
-                Junction { cap: w, limit: Limit::Corner, dwell: 0.0 },
-                Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 },
-            ],
-            10,
-            0.0,
-        );
-        let mut crossings = Crossings(Vec::new());
-        let t = run(&track, h, &mut crossings);
-        (t, crossings.0)
+        let (t, record) = stepped(vec![piece(d, v, a, j); 2], &[w, 0.0], h);
+        (t, record.1)
     }
 
-    /// A braking that halts short of a stop covers the rest from rest to rest at the piece's caps.
-    /// Here (the acceleration built in one period, a corner crossed above its cap) the halt came
-    /// 0.09 mm short, the whole second piece, under 10 J h³ (0.3 mm): taken as the end of a
-    /// braking, it was covered in 7.9 ms at 11 mm/s, the cap 1.7 mm/s.
+    /// A braking that halts short of a stop takes the rest as a braking's final phase only where
+    /// that phase keeps the piece's caps, and starts again from rest elsewhere. Here (the
+    /// acceleration built in one period, a corner crossed above its cap) the halt came 0.09 mm
+    /// short, the whole second piece, under 10 J h³ (0.3 mm): taken as the end of a braking, it
+    /// was covered in 7.9 ms at 11 mm/s, the cap 1.7 mm/s.
     #[test]
     fn a_motion_halted_short_of_a_stop_covers_the_rest_within_its_caps() {
         let (d, v, a, j, w, h) = (0.090_127_53, 1.695_949, 3_325.128_5, 1_108_376.2, 0.832_057_8, 0.003);
@@ -1860,11 +1848,11 @@ mod tests {
         let mut junctions = vec![Junction { cap: f64::INFINITY, limit: Limit::Corner, dwell: 0.0 }; n];
         junctions[n - 1] = Junction { cap: 0.0, limit: Limit::Stop, dwell: 0.0 };
         work::take();
-        let whole = run(&Track::new(vec![p; n], junctions, usize::MAX, 0.0), h, &mut Record(Vec::new()));
+        let whole = run(&Track::new(vec![p; n], junctions, usize::MAX, 0.0), h, &mut Record::default());
         let [_, whole_work, _] = work::take();
         let mut builder = TrackBuilder::new(usize::MAX);
         let mut stepper = Stepper::new(h);
-        let mut record = Record(Vec::new());
+        let mut record = Record::default();
         for block in 0..n {
             builder.push(p, block, f64::INFINITY, Limit::Corner, true);
             assert_eq!(stepper.go(&builder.track, &mut record), Progress::Waiting);
