@@ -1535,34 +1535,25 @@ mod tests {
         let from_cruise = reach_distance(400.0, 0.0, 0.0, amax, jmax, jmax, 0.0);
         let under_way = reach_distance(400.0, -1000.0, 0.0, amax, jmax, jmax, 0.0);
         assert!(under_way < from_cruise);
-        // Following a braking profile, the remaining distance is what it says.
-        let p = Profile::rest_to_rest(1000.0, 400.0, amax, jmax);
-        let t_end = p.duration();
-        for k in 1..20 {
-            let t = t_end - 0.02 * k as f64;
-            let s = p.at(t);
-            if s.a < 0.0 {
-                let d = reach_distance(s.v, s.a, 0.0, amax, jmax, jmax, 0.0);
-                assert!((d - (1000.0 - s.s)).abs() < 1e-6, "at {t}: {d} vs {}", 1000.0 - s.s);
-            }
-        }
-    }
-
-    #[test]
-    fn the_braking_time_is_what_is_left_of_the_braking() {
-        // Along the last braking of a rest-to-rest motion (reaching the acceleration cap), the
-        // time left is the braking's.
-        let (amax, jmax) = (2500.0, 5000.0);
+        // Following a braking profile (reaching the acceleration cap), the remaining distance
+        // and time are what they say.
         let p = Profile::rest_to_rest(1000.0, 400.0, amax, jmax);
         let t_end = p.duration();
         for k in 1..40 {
             let t = t_end - 0.01 * k as f64;
             let s = p.at(t);
             if s.a < 0.0 {
+                let d = reach_distance(s.v, s.a, 0.0, amax, jmax, jmax, 0.0);
+                assert!((d - (1000.0 - s.s)).abs() < 1e-6, "at {t}: {d} vs {}", 1000.0 - s.s);
                 let left = braking_time(s.v, s.a, amax, jmax);
-                assert!((left - (t_end - t)).abs() < 1e-9, "at {t}: {left} vs {}", t_end - t);
+                assert!((left - (t_end - t)).abs() < 1e-9, "at {t}: {left} s vs {}", t_end - t);
             }
         }
+    }
+
+    #[test]
+    fn the_braking_time_ends_an_acceleration_first_and_eases_a_braking_too_hard() {
+        let (amax, jmax) = (2500.0, 5000.0);
         // Accelerating, it ends the acceleration first; braked too hard, it eases the deceleration.
         assert!((braking_time(0.0, 100.0, amax, jmax) - (0.02 + speed_change(1.0, 0.0, amax, jmax).1)).abs() < 1e-12);
         assert!((braking_time(0.1, -1000.0, amax, jmax) - 0.2).abs() < 1e-12);
