@@ -563,14 +563,15 @@ impl Stepper {
             // within a period: a step late, they reach the stop with speed left, and a stop
             // taken there would be sooner than the machine can make it (by several periods
             // where the acceleration builds in one or two).
-            let braking = braking_time(self.v, self.a, piece.acceleration, piece.jerk);
+            let (v0, a0) = (self.v, self.a);
+            let braking = || braking_time(v0, a0, piece.acceleration, piece.jerk);
             if self.known[self.k].cap <= 0.0
                 && let Some(tau) = final_phase(self.a, j, self.h)
                 && tau <= self.h
                 && self.ends[self.k] - self.u <= self.v * tau + 1e-12
             {
                 // The braking's last phase ends within this step: the stop, exactly.
-                self.t += tau.max(braking);
+                self.t += tau.max(braking());
                 self.u = self.ends[self.k];
                 self.v = 0.0;
                 self.a = 0.0;
@@ -593,7 +594,7 @@ impl Stepper {
                     // An exact stop: the motion ends at the junction, at the end of the braking's
                     // last phase: the deceleration eased to 0 at the piece's jerk, never sooner.
                     let ease = if self.a < 0.0 { -self.a / piece.jerk } else { 0.0 };
-                    let end = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease).max(braking);
+                    let end = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease).max(braking());
                     observer.crossing(self.k, self.t + end, 0.0, Limit::Stop);
                     self.t += end;
                     self.u = at;
@@ -623,7 +624,7 @@ impl Stepper {
                 let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
                 let (u_rest, _, _) = advance(self.u, self.v, self.a, j, tau);
                 let ease = if self.a < 0.0 { -self.a / piece.jerk } else { 0.0 };
-                let tau = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease).max(braking);
+                let tau = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease).max(braking());
                 let at = self.ends[self.k];
                 let rest = (at - u_rest).max(0.0);
                 self.t += tau;
