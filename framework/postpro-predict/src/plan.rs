@@ -592,9 +592,9 @@ impl Stepper {
                 let (_, vc, _) = advance(self.u, self.v, self.a, j, tau);
                 if self.known[self.k].cap <= 0.0 {
                     // An exact stop: the motion ends at the junction, at the end of the braking's
-                    // last phase: the deceleration eased to 0 at the piece's jerk, never sooner.
-                    let ease = if self.a < 0.0 { -self.a / piece.jerk } else { 0.0 };
-                    let end = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease).max(braking());
+                    // last phase, never sooner than the fastest braking (which eases the
+                    // deceleration to 0 at the piece's jerk).
+                    let end = final_phase(self.a, j, self.h).unwrap_or(tau).max(braking());
                     observer.crossing(self.k, self.t + end, 0.0, Limit::Stop);
                     self.t += end;
                     self.u = at;
@@ -623,8 +623,7 @@ impl Stepper {
                 // The speed reaches 0 within this step.
                 let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
                 let (u_rest, _, _) = advance(self.u, self.v, self.a, j, tau);
-                let ease = if self.a < 0.0 { -self.a / piece.jerk } else { 0.0 };
-                let tau = final_phase(self.a, j, self.h).unwrap_or(tau).max(ease).max(braking());
+                let tau = final_phase(self.a, j, self.h).unwrap_or(tau).max(braking());
                 let at = self.ends[self.k];
                 let rest = (at - u_rest).max(0.0);
                 self.t += tau;
@@ -1268,48 +1267,56 @@ pub(crate) fn scan_reach(v: f64, a: f64, amax: f64, jmax: f64, jnow: f64) -> f64
     stop + braking_curve_distance(v, a, amax, jmax, jnow) / 8.0
 }
 
-/// The distance of the whole speed change to 0 that [`reach_distance`] to 0 ends with (for a
-/// deceleration under way, the braking curve through the state, the part behind included);
-/// 0 where it ends with none (the speed reaches 0 while the deceleration eases).
-fn braking_curve_distance(v: f64, a: f64, amax: f64, jmax: f64, jnow: f64) -> f64 {
+/// How the fastest braking to rest from speed `v` and acceleration `a` ends (`|ü| ≤ amax`,
+/// `|u⃛| ≤ jmax`, and `jnow` the jerk available to end an ongoing acceleration or ease a
+/// deceleration above `amax`): the cases [`reach_distance`] to 0 walks.
+enum Braking {
+    /// With the whole speed change to rest from `top` at no acceleration, which starts `ahead`
+    /// from now: after an acceleration is ended or a deceleration eased to `amax`, or before now
+    /// (negative) where a deceleration under way is on its way down that change.
+    Curve { top: f64, ahead: f64 },
+    /// The speed reaches 0 while the deceleration eases, after `time`.
+    Eased { time: f64 },
+}
+
+fn braking_curve(v: f64, a: f64, amax: f64, jmax: f64, jnow: f64) -> Braking {
     let jr = jmax.min(jnow);
     if a > 0.0 {
         let t = a / jr;
-        let v1 = v + a * t - jr * t * t / 2.0;
-        return speed_change(v1.max(0.0), 0.0, amax, jmax).0;
+        return Braking::Curve { top: (v + a * t - jr * t * t / 2.0).max(0.0), ahead: t };
     }
     let d = -a;
     if d > amax {
         let t = (d - amax) / jr;
-        let v1 = v + a * t + jr * t * t / 2.0;
-        return braking_curve_distance(v1, -amax, amax, jmax, jnow);
+        return match braking_curve(v + a * t + jr * t * t / 2.0, -amax, amax, jmax, jnow) {
+            Braking::Curve { top, ahead } => Braking::Curve { top, ahead: t + ahead },
+            Braking::Eased { time } => Braking::Eased { time: t + time },
+        };
     }
-    let v_end = v - d * d / (2.0 * jmax);
-    if v_end < 0.0 {
-        return 0.0;
+    if v - d * d / (2.0 * jmax) < 0.0 {
+        return Braking::Eased { time: d / jmax };
     }
-    speed_change(v + d * d / (2.0 * jmax), 0.0, amax, jmax).0
+    Braking::Curve { top: v + d * d / (2.0 * jmax), ahead: -d / jmax }
+}
+
+/// The distance of the whole speed change to 0 that [`reach_distance`] to 0 ends with (for a
+/// deceleration under way, the braking curve through the state, the part behind included);
+/// 0 where it ends with none (the speed reaches 0 while the deceleration eases).
+fn braking_curve_distance(v: f64, a: f64, amax: f64, jmax: f64, jnow: f64) -> f64 {
+    match braking_curve(v, a, amax, jmax, jnow) {
+        Braking::Curve { top, .. } => speed_change(top, 0.0, amax, jmax).0,
+        Braking::Eased { .. } => 0.0,
+    }
 }
 
 /// The time of the fastest jerk-limited braking from speed `v` and acceleration `a` to rest
 /// (`|ü| ≤ amax`, `|u⃛| ≤ jmax`), wherever it ends: no motion from that state comes to rest
 /// sooner. Where the speed reaches 0 before a deceleration can be eased, the easing's time.
 fn braking_time(v: f64, a: f64, amax: f64, jmax: f64) -> f64 {
-    if a > 0.0 {
-        let t = a / jmax;
-        return t + speed_change((v + a * t - jmax * t * t / 2.0).max(0.0), 0.0, amax, jmax).1;
+    match braking_curve(v, a, amax, jmax, jmax) {
+        Braking::Curve { top, ahead } => ahead + speed_change(top, 0.0, amax, jmax).1,
+        Braking::Eased { time } => time,
     }
-    let d = -a;
-    if d > amax {
-        let t = (d - amax) / jmax;
-        return t + braking_time(v + a * t + jmax * t * t / 2.0, -amax, amax, jmax);
-    }
-    if v - d * d / (2.0 * jmax) < 0.0 {
-        return d / jmax;
-    }
-    // The braking from rest acceleration at the speed whose curve passes through (v, a), less the
-    // part of it already behind.
-    speed_change(v + d * d / (2.0 * jmax), 0.0, amax, jmax).1 - d / jmax
 }
 
 /// True only where [`reach_distance`] (same arguments) is at most `room`: a test without a root,
