@@ -1810,29 +1810,16 @@ mod tests {
             junction(0.272_245, Limit::Plunge),
             junction(0.0, Limit::Stop),
         ];
-        #[derive(Default)]
-        struct Steps {
-            jerks: Vec<(usize, f64)>,
-            crossings: Vec<(usize, f64)>,
-        }
-        impl Observer for Steps {
-            fn sample(&mut self, sample: &Sample) {
-                self.jerks.push((sample.piece, sample.j));
-            }
-            fn crossing(&mut self, piece: usize, _: f64, v: f64, _: Limit) {
-                self.crossings.push((piece, v));
-            }
-        }
-        let mut steps = Steps::default();
-        run(&Track::new(pieces, junctions, 10, 0.0), 0.003, &mut steps);
+        let mut record = Record::default();
+        run(&Track::new(pieces, junctions, 10, 0.0), 0.003, &mut record);
         // Into the retract at its cap, not far under it (a braking that had to end its easing
         // before the junction crossed at 0.143: overshooting the braking curve by a step, it
         // braked harder and harder to ease in ever less room).
-        let into_retract = steps.crossings.iter().find(|c| c.0 == 2).map(|c| c.1);
+        let into_retract = record.1.iter().find(|c| c.0 == 2).map(|c| c.2);
         assert!(into_retract.is_some_and(|v| v > 0.9 * 0.272_245), "crossed at {into_retract:?}");
         // On the block before the retract the jerk brakes, then eases: it changes sign at
         // most twice.
-        let jerks: Vec<f64> = steps.jerks.iter().filter(|s| s.0 == 2).map(|s| s.1).collect();
+        let jerks: Vec<f64> = record.0.iter().filter(|s| s.piece == 2).map(|s| s.j).collect();
         let changes = jerks.windows(2).filter(|w| w[0] * w[1] < 0.0).count();
         assert!(changes <= 2, "{changes} changes of sign: {jerks:?}");
     }
@@ -1878,18 +1865,11 @@ mod tests {
         junctions[199] = stop;
         let wide = Track::new(pieces.clone(), junctions.clone(), usize::MAX, 0.0);
         let narrow = Track::new(pieces, junctions, 5, 0.0);
-        let mut crossing_speed = Vec::new();
-        struct Crossings<'a>(&'a mut Vec<(usize, f64)>);
-        impl Observer for Crossings<'_> {
-            fn sample(&mut self, _: &Sample) {}
-            fn crossing(&mut self, piece: usize, _: f64, v: f64, _: Limit) {
-                self.0.push((piece, v));
-            }
-        }
-        let t_wide = run(&wide, 0.003, &mut Crossings(&mut crossing_speed));
-        let at_corner = crossing_speed.iter().find(|(p, _)| *p == 99).map(|c| c.1);
+        let mut record = Record::default();
+        let t_wide = run(&wide, 0.003, &mut record);
+        let at_corner = record.1.iter().find(|c| c.0 == 99).map(|c| c.2);
         assert!(at_corner.is_some_and(|v| v <= 50.0 * 1.001), "{at_corner:?}");
-        let t_narrow = run(&narrow, 0.003, &mut Crossings(&mut Vec::new()));
+        let t_narrow = run(&narrow, 0.003, &mut Record::default());
         assert!(t_narrow > t_wide * 1.2, "a 5-piece look-ahead on 1 mm pieces: {t_narrow} s vs {t_wide} s");
     }
 }
