@@ -145,15 +145,26 @@ impl Cursor<'_> {
     /// The joint values and their first three derivatives at `u`, `u` clamped to the domain:
     /// the span's cubic, in Taylor form about its first knot, computed once per span.
     pub fn derivatives(&mut self, u: f64) -> [Joints; DEGREE + 1] {
+        self.orders(u)
+    }
+
+    /// The joint values and their first derivative at `u`: the first two of
+    /// [`Self::derivatives`], the same numbers, without the higher orders.
+    pub fn tangent(&mut self, u: f64) -> [Joints; 2] {
+        self.orders(u)
+    }
+
+    /// The first `N` (at most `DEGREE + 1`) of [`Self::derivatives`].
+    fn orders<const N: usize>(&mut self, u: f64) -> [Joints; N] {
         let (u, span) = self.locate(u);
         let (start, c) = self.coefficients(span);
         let t = u - start;
         let axes = self.spline.control[0].len();
-        let mut out = [[0.0; MAX_AXES]; DEGREE + 1];
+        let mut out = [[0.0; MAX_AXES]; N];
         for a in 0..axes {
             let d = cubic([c[0][a], c[1][a], c[2][a], c[3][a]], t);
-            for (order, value) in d.into_iter().enumerate() {
-                out[order][a] = value;
+            for (order, value) in out.iter_mut().zip(d) {
+                order[a] = value;
             }
         }
         out.map(|values| Joints::from_array(values, axes))
@@ -865,6 +876,9 @@ mod tests {
                 // Every third parameter is a knot itself.
                 let u = if i % 3 == 0 { knots_inside[i % knots_inside.len()] } else { lo + (hi - lo) * f };
                 let (got, want) = (cursor.derivatives(u), derivatives_at(&spline, u.clamp(lo, hi)));
+                // The value and slope alone: the same numbers.
+                let tangent = cursor.tangent(u);
+                proptest::prop_assert_eq!((tangent[0], tangent[1]), (got[0], got[1]));
                 for k in 0..=DEGREE {
                     let tolerance = 1e-11 * scale / spacing.powi(k as i32);
                     for a in 0..3 {

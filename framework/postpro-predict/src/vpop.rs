@@ -273,6 +273,9 @@ impl Maker {
         // The first knot past the start of the data interval (the knots increase, so do the intervals).
         let mut knot = 0;
         let mut cursor = spline.cursor();
+        // The tip's rate at the end of the last piece: the next one starts there.
+        let mut end_rate = None;
+        let mut cuts = Vec::new();
         // Data interval `d` ends at data point d + 1: block start + d.
         for d in 0..params.len() - 1 {
             let block = start + d;
@@ -281,7 +284,8 @@ impl Maker {
             // over a piece are exact (`Cursor::derivative_bounds`).
             let pieces = pieces_per_interval();
             let (s0, s1) = (params[d], params[d + 1]);
-            let mut cuts: Vec<f64> = (0..=pieces).map(|k| s0 + (s1 - s0) * k as f64 / pieces as f64).collect();
+            cuts.clear();
+            cuts.extend((0..=pieces).map(|k| s0 + (s1 - s0) * k as f64 / pieces as f64));
             while knot < spline.knots.len() && spline.knots[knot] <= s0 {
                 knot += 1;
             }
@@ -290,7 +294,8 @@ impl Maker {
             cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * (s1 - s0).max(1e-9));
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
-                let piece = curve_piece(machine, &mut cursor, kin, from, to, feed);
+                let piece;
+                (piece, end_rate) = curve_piece(machine, &mut cursor, kin, from, to, feed, end_rate);
                 track.push(piece, block, corner, why, true);
                 curves.pad_to(track.len() - 1);
                 curves.segments.push(Segment::Curve { spline: which, from });
@@ -318,7 +323,8 @@ fn pieces_per_interval() -> usize {
     PIECES_PER_INTERVAL
 }
 
-/// The caps of the spline between parameters `from` and `to`.
+/// The caps of the spline between parameters `from` and `to`, and the tip's rate at `to`;
+/// `start_rate` is the rate at `from` where the last piece, which ended there, found it.
 fn curve_piece(
     machine: &Machine,
     cursor: &mut Cursor<'_>,
@@ -326,7 +332,8 @@ fn curve_piece(
     from: f64,
     to: f64,
     feed: f64,
-) -> Piece {
+    start_rate: Option<f64>,
+) -> (Piece, Option<f64>) {
     let axes = &machine.axes;
     let cnc = &machine.cnc;
     // The largest |q_s|, |q_ss|, |q_sss| of each axis over the piece.
@@ -334,13 +341,18 @@ fn curve_piece(
     let worst = &worst[..axes.len()];
     // The tip's rate along the parameter (the forward kinematics' derivative along `q_s`) at the
     // ends and the middle: the parameter is the tip's chord length, so the rate is near 1 and
-    // varies slowly. The ends just inside: the span the piece lies in.
+    // varies slowly. The ends just inside: the span the piece lies in. The rate at the start is
+    // the last piece's at its end where there was one: `q` and `q_s` are continuous across the
+    // fit's knots, which are simple (a cubic spline is C² there).
     let inset = 1e-9 * (to - from);
-    let mut tip_rate: f64 = 0.0;
-    for s in [from + inset, 0.5 * (from + to), to - inset] {
-        let d = cursor.derivatives(s);
-        tip_rate = tip_rate.max(kin.forward_rate(&d[0], &d[1]).tip.norm());
-    }
+    let mut rate_at = |s: f64| {
+        let [q, q_s] = cursor.tangent(s);
+        kin.forward_rate(&q, &q_s).tip.norm()
+    };
+    let start = start_rate.unwrap_or_else(|| rate_at(from + inset));
+    let middle = rate_at(0.5 * (from + to));
+    let end = rate_at(to - inset);
+    let tip_rate = 0f64.max(start).max(middle).max(end);
     let mut piece = Piece {
         length: to - from,
         velocity: if tip_rate > 0.0 { feed / tip_rate } else { feed },
@@ -392,7 +404,7 @@ fn curve_piece(
         }
         tighten(&mut piece.jerk, &mut piece.jerk_limit, j_cap, Limit::Jerk(index));
     }
-    finite(piece)
+    (finite(piece), Some(end))
 }
 
 fn finite(mut piece: Piece) -> Piece {
