@@ -294,8 +294,8 @@ impl Maker {
             cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * (s1 - s0).max(1e-9));
             for w in cuts.windows(2) {
                 let (from, to) = (w[0], w[1]);
-                let piece;
-                (piece, end_rate) = curve_piece(machine, &mut cursor, kin, from, to, feed, end_rate);
+                let (piece, rate_at_end) = curve_piece(machine, &mut cursor, kin, from, to, feed, end_rate);
+                end_rate = Some(rate_at_end);
                 track.push(piece, block, corner, why, true);
                 curves.pad_to(track.len() - 1);
                 curves.segments.push(Segment::Curve { spline: which, from });
@@ -333,7 +333,7 @@ fn curve_piece(
     to: f64,
     feed: f64,
     start_rate: Option<f64>,
-) -> (Piece, Option<f64>) {
+) -> (Piece, f64) {
     let axes = &machine.axes;
     let cnc = &machine.cnc;
     // The largest |q_s|, |q_ss|, |q_sss| of each axis over the piece.
@@ -404,7 +404,7 @@ fn curve_piece(
         }
         tighten(&mut piece.jerk, &mut piece.jerk_limit, j_cap, Limit::Jerk(index));
     }
-    (finite(piece), Some(end))
+    (finite(piece), end)
 }
 
 fn finite(mut piece: Piece) -> Piece {
