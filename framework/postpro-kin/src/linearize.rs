@@ -19,10 +19,11 @@ use crate::solver::{Kinematics, Solutions};
 const MAX_DEPTH: u32 = 12;
 /// The most levels a held stretch adds to [`MAX_DEPTH`], for its shortness.
 const MAX_HELD_DEPTH: u32 = 28;
-/// Where the deviation is sampled on each piece.
-const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
-/// Where it is sampled on the pieces of a move near the pole.
-const SAMPLES_NEAR_POLE: [f64; 7] = [0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875];
+/// Where the deviation is sampled on each piece, the middle first (where a bend is farthest out:
+/// a piece found out there is split without the others).
+const SAMPLES: [f64; 3] = [0.5, 0.25, 0.75];
+/// Where it is sampled on the pieces of a move near the pole, the middle first.
+const SAMPLES_NEAR_POLE: [f64; 7] = [0.5, 0.25, 0.75, 0.125, 0.375, 0.625, 0.875];
 
 /// Inserts points between feed moves until the tool tip, with the axes interpolated linearly,
 /// stays within the policy's tolerance (mm) of every programmed segment. Returns the number
@@ -277,12 +278,16 @@ pub fn deviation(kin: &dyn Kinematics, a: &Step, b: &Step) -> f64 {
     deviation_at(kin, a, b, &SAMPLES)
 }
 
-/// [`deviation`] sampled at `samples` (parameters in `0..1`).
+/// [`deviation`] sampled at `samples` (parameters in `0..1`); NaN if a sample is.
 fn deviation_at(kin: &dyn Kinematics, a: &Step, b: &Step, samples: &[f64]) -> f64 {
-    samples
-        .iter()
-        .map(|&t| distance_to_segment(&kin.forward(&a.joints.lerp(&b.joints, t)).tip, &a.pose.tip, &b.pose.tip))
-        .fold(0.0, f64::max)
+    // A NaN is kept (`f64::max` would drop it): it is not within any tolerance.
+    samples.iter().map(|&t| deviation_sample(kin, a, b, t)).fold(0.0, |m, d| if d > m || d.is_nan() { d } else { m })
+}
+
+/// How far the tip is off the segment `a → b` at parameter `t` of the move, the axes
+/// interpolated linearly.
+fn deviation_sample(kin: &dyn Kinematics, a: &Step, b: &Step, t: f64) -> f64 {
+    distance_to_segment(&kin.forward(&a.joints.lerp(&b.joints, t)).tip, &a.pose.tip, &b.pose.tip)
 }
 
 /// How far a step's tip may be off its pose: the placing verifies it of the program's steps
@@ -356,7 +361,7 @@ impl Split<'_> {
         let tolerance = self.limits.0;
         // Anything but "within tolerance" splits, a NaN deviation too.
         let within = |d: f64| d.partial_cmp(&tolerance).is_some_and(|o| o != std::cmp::Ordering::Greater);
-        let mut over = None;
+        let (mut over, mut found_out) = (None, false);
         let max_depth = self.max_depth((sa, sb));
         // Near the pole the axes turn unevenly along a piece: its deviation is sampled finer.
         let samples: &[f64] = if self.end_poles.is_some() { &SAMPLES_NEAR_POLE } else { &SAMPLES };
@@ -364,12 +369,19 @@ impl Split<'_> {
             if provably_within(kin, a, b, tolerance) {
                 return false;
             }
+            if depth < max_depth {
+                // The first sample out of tolerance splits: the others need not be taken (the
+                // deviation is measured whole only if the piece cannot be split after all).
+                found_out = samples.iter().any(|&t| !within(deviation_sample(kin, a, b, t)));
+                return found_out;
+            }
             let d = deviation_at(kin, a, b, samples);
             if within(d) {
                 return false;
             }
+            // At the deepest subdivision: left, out of tolerance by `d`.
             over = Some(d);
-            depth < max_depth
+            false
         });
         if !split {
             return self.left(over);
@@ -379,7 +391,7 @@ impl Split<'_> {
             Pose { tip: a.pose.tip + (b.pose.tip - a.pose.tip) * 0.5, axis: slerp(&a.pose.axis, &b.pose.axis, 0.5) };
         let s = 0.5 * (sa + sb);
         let Some(joints) = self.solve(kin, &pose, a.joints.lerp(&b.joints, 0.5), s) else {
-            return self.left(over);
+            return self.left(found_out.then(|| deviation_at(kin, a, b, samples)));
         };
         let mid = Step { joints, pose, rapid: false, span: b.span, kind: StepKind::Linearized };
         let left = self.subdivide(kin, a, &mid, (sa, s), depth + 1);
@@ -745,6 +757,16 @@ mod tests {
         let mut right = Linearizer::new(&policy);
         run(&chain, &mut right, &path);
         assert_eq!(right.unsettled().segments, 0);
+    }
+
+    #[test]
+    fn a_deviation_that_cannot_be_measured_is_not_taken_for_none() {
+        let chain = Chain::new(testing::mikron(SolverKind::Generic));
+        let mut path = steps(&chain, &[[0.0, 0.0, 0.0], [40.0, 0.0, 0.0]], &[0.0, 15.0]);
+        assert!(deviation(&chain, &path[0], &path[1]) > 0.0);
+        // An axis value that is not a number: every sample's tip is NaN, whichever is first.
+        path[1].joints[0] = f64::NAN;
+        assert!(deviation(&chain, &path[0], &path[1]).is_nan());
     }
 
     #[test]
