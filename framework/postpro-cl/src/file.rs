@@ -76,32 +76,43 @@ impl ClFile {
         // the lines read so far comes again) and its offset. Lines end at ASCII bytes, so whole
         // lines never cut a UTF-8 sequence: checking them in turn checks the file.
         let mut scan = Some((Prescanner::default(), Vec::<u8>::new(), 0usize));
-        let mut block = vec![0u8; read];
+        // The bytes read, where they are not read into the text itself (a Latin-1 file).
+        let mut block = Vec::new();
         loop {
-            let n = file.read(&mut block).map_err(io)?;
-            let data = &block[..n];
-            bytes += n as u64;
-            high += high_bytes(data);
-            let last = n == 0;
-            if let Some((scanner, text, base)) = scan.as_mut() {
-                if latin1 {
-                    push_latin1(text, data);
-                } else {
-                    text.extend_from_slice(data);
+            let (n, last) = match scan.as_mut() {
+                Some((_, text, _)) if !latin1 => {
+                    // Read into the text itself, not copied through a block.
+                    let start = text.len();
+                    text.reserve(read);
+                    let n = Read::take(&mut file, read as u64).read_to_end(text).map_err(io)?;
+                    high += high_bytes(&text[start..]);
+                    (n, n < read)
                 }
-                if !scan_lines(scanner, text, base, last) {
-                    latin1 = true;
-                    // Not UTF-8: Latin-1. While the lines scanned so far were ASCII, which reads
-                    // the same in both, the pre-scan goes on with the text decoded; else the
-                    // first reading does it.
-                    let raw = std::mem::take(text);
-                    if high_bytes(&raw) == high {
-                        push_latin1(text, &raw);
-                        // Decoded Latin-1 is UTF-8.
-                        let _ = scan_lines(scanner, text, base, last);
-                    } else {
-                        scan = None;
+                _ => {
+                    block.resize(read, 0);
+                    let n = file.read(&mut block).map_err(io)?;
+                    high += high_bytes(&block[..n]);
+                    if let Some((_, text, _)) = scan.as_mut() {
+                        push_latin1(text, &block[..n]);
                     }
+                    (n, n == 0)
+                }
+            };
+            bytes += n as u64;
+            if let Some((scanner, text, base)) = scan.as_mut()
+                && !scan_lines(scanner, text, base, last)
+            {
+                latin1 = true;
+                // Not UTF-8: Latin-1. While the lines scanned so far were ASCII, which reads the
+                // same in both, the pre-scan goes on with the text decoded; else the first
+                // reading does it.
+                let raw = std::mem::take(text);
+                if high_bytes(&raw) == high {
+                    push_latin1(text, &raw);
+                    // Decoded Latin-1 is UTF-8.
+                    let _ = scan_lines(scanner, text, base, last);
+                } else {
+                    scan = None;
                 }
             }
             if last {
