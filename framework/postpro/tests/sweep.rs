@@ -16,8 +16,8 @@
 //! as the main job does.
 //!
 //! About 3 000 runs: too many for the unoptimised build, so the tests are `#[ignore]`d there and
-//! `.ci/run` runs them on the release build:
-//! `cargo test --release -p postpro --test sweep -- --ignored`.
+//! `.ci/run` runs them optimised, with the `sweep` profile (the release build's optimisation,
+//! quicker to build): `cargo test --profile sweep -p postpro --test sweep -- --ignored`.
 
 mod programs;
 
@@ -75,7 +75,7 @@ fn run(file: &Path, args: &[&str], out: &Path) -> Option<String> {
 }
 
 #[test]
-#[ignore = "thousands of runs: run on the release build (`.ci/run` does)"]
+#[ignore = "thousands of runs: run optimised (`.ci/run` does, with the `sweep` profile)"]
 fn every_file_on_every_machine_in_every_mode_posts_or_says_why() {
     let mut files: Vec<PathBuf> = tests::real_cl_files().into_iter().map(|(_, path)| path).collect();
     files.extend(examples());
@@ -114,7 +114,7 @@ const OPTIONS: &[&[&str]] = &[
 /// Every real file and example on the three real machines with the options of [`OPTIONS`], and
 /// through `predict` and `solve`: a whole program or an error and no file, and never a panic.
 #[test]
-#[ignore = "thousands of runs: run on the release build (`.ci/run` does)"]
+#[ignore = "thousands of runs: run optimised (`.ci/run` does, with the `sweep` profile)"]
 fn every_file_posts_or_says_why_with_the_writing_options_and_through_predict_and_solve() {
     let mut files: Vec<PathBuf> = tests::real_cl_files().into_iter().map(|(_, path)| path).collect();
     files.extend(examples());
