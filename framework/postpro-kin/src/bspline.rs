@@ -681,17 +681,17 @@ fn refit(
 
 /// Adds to `failing` the segments among `segments` (segment s: from point s to point s + 1)
 /// where the spline, evaluated at seven parameters inside, takes the tool tip farther than
-/// `tolerance` from the programmed segment.
+/// `tolerance` from the programmed segment, or to a distance that is not a number (a tip the
+/// forward kinematics could not compute is not within anything).
 fn check(kin: &dyn Kinematics, fit: &Fit, tolerance: f64, segments: Range<usize>, failing: &mut Vec<usize>) {
     let (poses, params) = (&fit.poses, &fit.params);
     let mut cursor = fit.spline.cursor_from(segments.start + 1);
     for s in segments {
         let (a, b) = (&poses[s].tip, &poses[s + 1].tip);
-        let off = (1..8)
+        let within = (1..8)
             .map(|k| params[s] + (params[s + 1] - params[s]) * f64::from(k) / 8.0)
-            .map(|u| distance_to_segment(&kin.forward(&cursor.value(u)).tip, a, b))
-            .fold(0.0, f64::max);
-        if off > tolerance {
+            .all(|u| distance_to_segment(&kin.forward(&cursor.value(u)).tip, a, b) <= tolerance);
+        if !within {
             failing.push(s);
         }
     }
@@ -843,6 +843,59 @@ mod tests {
                 assert!((g[a] - c[a]).abs() < 1e-9, "{g:?} vs {c:?}");
             }
         }
+    }
+
+    /// A machine whose forward kinematics cannot compute the tip where the first axis is
+    /// beyond `from`: the tip is then not a number.
+    struct Blind<'a> {
+        inner: &'a dyn Kinematics,
+        from: f64,
+    }
+
+    impl Kinematics for Blind<'_> {
+        fn machine(&self) -> &postpro_machine::model::Machine {
+            self.inner.machine()
+        }
+        fn forward(&self, joints: &Joints) -> Pose {
+            let pose = self.inner.forward(joints);
+            if joints[0] > self.from { Pose { tip: Point3::new(f64::NAN, f64::NAN, f64::NAN), ..pose } } else { pose }
+        }
+        fn inverse(&self, pose: &Pose, out: &mut Solutions) {
+            self.inner.inverse(pose, out);
+        }
+        fn inverse_holding(&self, pose: &Pose, free_axis: usize, value: f64) -> Option<Joints> {
+            self.inner.inverse_holding(pose, free_axis, value)
+        }
+        fn place(&self, pose: &Pose, rotaries: &Joints) -> Joints {
+            self.inner.place(pose, rotaries)
+        }
+    }
+
+    #[test]
+    fn a_stretch_whose_tip_cannot_be_computed_is_not_taken_for_within() {
+        let kin = mikron();
+        let (joints, poses) = five_axis_run(&kin, 200);
+        let (tolerance, cone) = (0.01, 0.5_f64.to_radians());
+        let run = Run { joints: &joints, poses: &poses };
+        let fit = fit_indexed(&kin, &run, tolerance, cone).expect("fits");
+        let mut failing = Vec::new();
+        check(&kin, &fit, tolerance, 0..fit.poses.len() - 1, &mut failing);
+        assert_eq!(failing, Vec::<usize>::new());
+
+        // Blind past the middle of the run's X range: the segments there are off, the rest not.
+        let xs = || joints.iter().map(|j| j[0]);
+        let from = 0.5 * (xs().fold(f64::INFINITY, f64::min) + xs().fold(f64::NEG_INFINITY, f64::max));
+        let blind = Blind { inner: &kin, from };
+        check(&blind, &fit, tolerance, 0..fit.poses.len() - 1, &mut failing);
+        let params = &fit.params;
+        let blinded = |s: usize| {
+            (1..8).any(|k| fit.spline.at(params[s] + (params[s + 1] - params[s]) * f64::from(k) / 8.0)[0] > from)
+        };
+        let expected: Vec<usize> = (0..fit.poses.len() - 1).filter(|&s| blinded(s)).collect();
+        assert!(!expected.is_empty() && expected.len() < fit.poses.len() - 1, "{}", expected.len());
+        assert_eq!(failing, expected);
+        // Such a run is not fitted at all: its midpoints are never within either.
+        assert!(fit_indexed(&blind, &run, tolerance, cone).is_none());
     }
 
     /// The derivatives straight from the basis functions' derivatives at `u` (The NURBS Book

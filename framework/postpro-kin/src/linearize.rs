@@ -360,8 +360,8 @@ impl Split<'_> {
     /// tolerance; returns the points inserted (also pushed to `out`, in order).
     fn subdivide(&mut self, kin: &dyn Kinematics, a: &Step, b: &Step, (sa, sb): (f64, f64), depth: u32) -> usize {
         let tolerance = self.limits.0;
-        // Anything but "within tolerance" splits, a NaN deviation too.
-        let within = |d: f64| d.partial_cmp(&tolerance).is_some_and(|o| o != std::cmp::Ordering::Greater);
+        // Anything but "within tolerance" splits, a NaN deviation too (`NaN <= t` is false).
+        let within = |d: f64| d <= tolerance;
         let (mut over, mut found_out) = (None, false);
         let max_depth = self.max_depth((sa, sb));
         // Near the pole the axes turn unevenly along a piece: its deviation is sampled finer.
