@@ -26,7 +26,8 @@ pub(crate) struct CheckArgs {
     /// ones with the source line.
     #[arg(long)]
     brief: bool,
-    /// Print the reading throughput (MB/s, the file opened, read and summarised) to stderr.
+    /// Print the reading throughput (MB/s, the file opened, read and summarised) and the peak
+    /// memory (where the system says it) to stderr.
     #[arg(long)]
     timing: bool,
 }
@@ -46,7 +47,11 @@ pub(crate) fn run(args: &CheckArgs) -> ExitCode {
     };
     if args.timing {
         let (mb, seconds) = (file.len() as f64 / 1e6, started.elapsed().as_secs_f64());
-        eprintln!("read {mb:.1} MB in {seconds:.3} s: {:.0} MB/s", mb / seconds.max(1e-9));
+        eprintln!(
+            "read {mb:.1} MB in {seconds:.3} s: {:.0} MB/s{}",
+            mb / seconds.max(1e-9),
+            crate::memory::peak_note()
+        );
     }
     if let Err(e) = print_diagnostics(&file, &diagnostics, args.brief) {
         eprintln!("error: {e}");

@@ -76,7 +76,8 @@ pub(crate) struct EmitArgs {
     /// Number the blocks (N10, N20, …).
     #[arg(long)]
     block_numbers: bool,
-    /// Print on standard error how long each pass took and the throughput (CL points per second).
+    /// Print on standard error how long each pass took, the throughput (CL points per second)
+    /// and the peak memory (where the system says it).
     #[arg(long)]
     timing: bool,
     /// Write the program in a pass of its own even where the prediction pass can write it as it

@@ -10,6 +10,7 @@ mod emit;
 mod html;
 mod job;
 mod machines;
+mod memory;
 mod orient;
 mod plot;
 mod predict;

@@ -141,7 +141,8 @@ pub(crate) struct PredictArgs {
     #[arg(long, value_name = "MS", allow_negative_numbers = true)]
     period: Option<f64>,
     /// Print the time the prediction took and its throughput (blocks and samples per second)
-    /// to standard error: streamed, the prediction pass's (reading and solving included).
+    /// to standard error: streamed, the prediction pass's (reading and solving included); and
+    /// the peak memory (where the system says it).
     #[arg(long)]
     timing: bool,
 }
@@ -440,16 +441,17 @@ pub(crate) fn warn_if_abandoned(totals: &postpro_predict::Totals) {
     }
 }
 
-/// `--timing`: the prediction's throughput, on standard error.
+/// `--timing`: the prediction's throughput and the peak memory, on standard error.
 fn print_timing(blocks: usize, samples: u64, seconds: f64) {
     let (blocks, steps) = (blocks as f64, samples as f64);
     eprintln!(
         "predicted {blocks} blocks, {steps} samples in {seconds:.3} s: {:.2} M blocks/s, {:.2} M samples/s \
-         ({:.0} ns per block, {:.0} ns per sample)",
+         ({:.0} ns per block, {:.0} ns per sample){}",
         blocks / seconds / 1e6,
         steps / seconds / 1e6,
         seconds / blocks.max(1.0) * 1e9,
-        seconds / steps.max(1.0) * 1e9
+        seconds / steps.max(1.0) * 1e9,
+        crate::memory::peak_note()
     );
 }
 

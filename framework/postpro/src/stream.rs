@@ -1216,7 +1216,7 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
         let seconds = total.as_secs_f64();
         eprintln!(
             "timing: {} CL points ({:.1} MB) in {seconds:.3} s: {:.0} k CL points/s, {:.1} MB/s; {passes} passes (survey {:.3} \
-             s, {} {:.3} s, writing {:.3} s)",
+             s, {} {:.3} s, writing {:.3} s){}",
             summary.cl_points,
             file.len() as f64 / 1e6,
             summary.cl_points as f64 / seconds / 1e3,
@@ -1229,6 +1229,7 @@ fn write_program(passes: &Passes<'_>, predicting: Option<Predicting<'_>>) -> Res
             },
             (predicted_at - surveyed_at).as_secs_f64(),
             (total - predicted_at).as_secs_f64(),
+            crate::memory::peak_note(),
         );
     }
     let (inserts, first_insert) = inserts;

@@ -191,6 +191,9 @@ fn timing_goes_to_stderr() {
     let o = postpro(&["check", "--timing", "--json", EXAMPLE]);
     assert_eq!(o.status.code(), Some(0));
     assert!(stderr(&o).contains("MB/s"), "{}", stderr(&o));
+    if cfg!(target_os = "linux") {
+        assert!(stderr(&o).contains("MB/s; peak memory "), "{}", stderr(&o));
+    }
     // stdout stays machine-readable.
     serde_json::from_str::<serde_json::Value>(&stdout(&o)).expect("stdout is JSON");
 }
