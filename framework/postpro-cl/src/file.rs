@@ -21,6 +21,8 @@ use crate::{Diagnostic, Error, ProgramInfo};
 const WINDOW: usize = 4 << 20;
 /// The size of a read.
 const BLOCK: usize = 1 << 20;
+/// The least read that ends a window (what runs past the window's size to the end of a line).
+const LINE_READ: usize = 4 << 10;
 /// The text between two line-and-column checkpoints (about; each is at a line start).
 const STRIDE: usize = 64 << 10;
 
@@ -335,16 +337,22 @@ impl ClFile {
         // a new buffer grown (and its pages faulted in) for every window.
         let mut kept: std::collections::VecDeque<Arc<String>> = std::collections::VecDeque::new();
         loop {
-            // Whole lines up to the window's size (or to the end of the file).
+            // Whole lines up to the window's size (or to the end of the file): reads up to the
+            // size, then small ones to the end of the line it cuts, into a buffer reserved
+            // exactly for the window and a line or two past it (grown by doubling, it would end
+            // up to twice the window: it is handed from window to window).
             while whole < want && !eof {
+                let chunk = want.saturating_sub(text.len()).max(LINE_READ).min(read);
+                let room = if self.latin1 { 2 * chunk } else { chunk };
+                let capacity = (want + 2 * LINE_READ).max(text.len() + room);
+                text.reserve_exact(capacity - text.len());
                 if self.latin1 {
-                    let n = file.read(&mut block).map_err(io)?;
+                    let n = file.read(&mut block[..chunk]).map_err(io)?;
                     push_latin1(&mut text, &block[..n]);
                     eof = n == 0;
                 } else {
-                    text.reserve(read);
-                    let n = Read::take(&mut file, read as u64).read_to_end(&mut text).map_err(io)?;
-                    eof = n < read;
+                    let n = Read::take(&mut file, chunk as u64).read_to_end(&mut text).map_err(io)?;
+                    eof = n < chunk;
                 }
                 // The lines before the new bytes were whole already.
                 whole = if eof { text.len() } else { whole + last_line_end(&text[whole..]) };

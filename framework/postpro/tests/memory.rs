@@ -1,0 +1,87 @@
+//! Peak memory does not grow with the file (issue 15): what `--timing` reports (the resident
+//! set's high-water mark, Linux) for a program and for one twice as long, both several of the
+//! passes' 4 MiB windows of text long, in every output mode and for `check`. The passes keep a
+//! few bits per CL point (the branch graph, the linearizer's decisions) and bounded windows;
+//! a stage that kept anything per pose (50 bytes or more) would add tens of MB here.
+//!
+//! Runs of a few hundred thousand points: too slow for the unoptimised build, so the tests are
+//! `#[ignore]`d there and `.ci/run` runs them optimised, with the `sweep` profile:
+//! `cargo test --profile sweep -p postpro --test memory -- --ignored`.
+
+mod programs;
+
+use std::path::Path;
+
+use programs::{on_two_threads, out_dir, postpro, stderr};
+
+/// The two programs: `postpro-examples big` (4 mm blocks, 5-axis) of 13 and 26 MiB, about
+/// 220 k and 440 k CL points.
+const SIZES_MIB: [usize; 2] = [13, 26];
+
+/// Bytes a CL point may add to the peak: a few bits kept per point, the rest noise.
+const PER_POINT: f64 = 4.0;
+/// The allocator's noise between two runs.
+const SLACK_MB: f64 = 1.0;
+
+/// The CL points and the peak memory (MB) of a `--timing` line.
+fn timing(said: &str) -> Option<(f64, f64)> {
+    let line = said.lines().find(|l| l.starts_with("timing: ") || l.starts_with("read "))?;
+    let points = line.strip_prefix("timing: ").and_then(|rest| rest.split(' ').next()?.parse().ok()).unwrap_or(0.0);
+    let peak = line.split("; peak memory ").nth(1)?.strip_suffix(" MB")?.parse().ok()?;
+    Some((points, peak))
+}
+
+/// Writes the two programs; their paths.
+fn programs(dir: &Path) -> Vec<String> {
+    SIZES_MIB
+        .iter()
+        .map(|mib| {
+            let path = dir.join(format!("big-{mib}.cl"));
+            std::fs::write(&path, postpro_examples::big_goto_file(mib << 20)).expect("the program is written");
+            path.to_str().expect("a UTF-8 path").to_string()
+        })
+        .collect()
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+#[ignore = "runs of hundreds of thousands of points: run optimised (`.ci/run` does, with the `sweep` profile)"]
+fn peak_memory_does_not_grow_with_the_file() {
+    let dir = out_dir("memory");
+    let files = programs(&dir);
+    let modes = ["g1", "inverse-time", "tcp", "bspline", "check"];
+    let cases: Vec<(&str, &String)> = modes.iter().flat_map(|m| files.iter().map(move |f| (*m, f))).collect();
+    let measured = on_two_threads(&cases, |&(mode, file)| {
+        let out = format!("{file}.{mode}.mpf");
+        let args: Vec<&str> = match mode {
+            "check" => vec!["check", "--timing", file],
+            _ => vec!["--machine", "mikron", file, "-o", &out, "--mode", mode, "--timing"],
+        };
+        let o = postpro(&args, &dir);
+        let _ = std::fs::remove_file(&out);
+        assert_eq!(o.status.code(), Some(0), "postpro {}:\n{}", args.join(" "), stderr(&o));
+        timing(&stderr(&o))
+            .unwrap_or_else(|| panic!("postpro {}: no peak memory said:\n{}", args.join(" "), stderr(&o)))
+    });
+    let mut report = Vec::new();
+    for (k, pair) in measured.chunks(2).enumerate() {
+        let [(points, small), (more_points, large)] = [pair[0], pair[1]];
+        let mode = modes[k];
+        report.push(format!("{mode}: {small:.1} MB ({points} points), {large:.1} MB ({more_points} points)"));
+        // `check` says no points: it holds nothing per point at all.
+        let allowed = SLACK_MB + PER_POINT * (more_points - points) / 1e6;
+        assert!(large - small <= allowed, "{mode}: {large:.1} MB against {small:.1} MB, {allowed:.1} allowed");
+        let size_mb = (SIZES_MIB[1] << 20) as f64 / 1e6;
+        assert!(large <= 2.0 * size_mb, "{mode}: {large:.1} MB for a {size_mb:.1} MB file");
+    }
+    println!("{}", report.join("\n"));
+}
+
+#[test]
+fn the_timing_line_says_the_points_and_the_peak() {
+    let main = "timing: 25295 CL points (1.6 MB) in 0.194 s: 130 k CL points/s, 8.0 MB/s; 2 passes (survey 0.023 s, \
+                prediction and program 0.163 s, writing 0.008 s); peak memory 15.7 MB";
+    assert_eq!(timing(main), Some((25295.0, 15.7)));
+    assert_eq!(timing("read 6.3 MB in 0.054 s: 117 MB/s; peak memory 11.6 MB"), Some((0.0, 11.6)));
+    assert_eq!(timing("read 6.3 MB in 0.054 s: 117 MB/s"), None);
+}
