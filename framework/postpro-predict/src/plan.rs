@@ -386,11 +386,11 @@ pub struct Stepper {
     /// The window's end seen from piece `.0`, once the track held it: it stays while the motion
     /// is on that piece ([`Self::window_end`]).
     window_end_from: Option<(usize, usize)>,
-    /// Cruising on this piece at its cap, nothing ahead within braking reach while the steps end
-    /// under `.2`: the piece, where the steps taken at once end (`.1`, before the piece's end:
-    /// the step that crosses it is taken alone, to report the crossing) and `.2`; the steps up
-    /// to it need no scan of the junctions (the junctions before it have caps above the speed).
-    cruise: Option<(usize, f64, f64)>,
+    /// Cruising on piece `.0` at its cap, nothing ahead within braking reach while the steps end
+    /// under `.1`: the steps up to it need no scan of the junctions (the junctions before it have
+    /// caps above the speed), and those into pieces of the same speed cap are taken at once
+    /// ([`Self::cruise_periods`]).
+    cruise: Option<(usize, f64)>,
     started: bool,
     done: bool,
     /// What the last step tried needs the track to hold before it can be decided: nothing
@@ -525,15 +525,26 @@ impl Stepper {
     fn steps(&mut self, track: &Track, observer: &mut dyn Observer) -> Progress {
         let skip = !observer.every_period();
         loop {
-            if skip && let Some(n) = self.cruise_periods(track) {
+            if skip && let Some((n, last)) = self.cruise_periods(track) {
                 // Cruising at the piece's cap with nothing ahead within braking reach: the next
-                // `n` steps are all the same, taken at once.
-                let cap = track.pieces[self.k];
+                // `n` steps are all the same, taken at once, across the junctions they cross into
+                // pieces of the same cap, up to piece `last` (each crossing reported as its step
+                // would report it).
+                let limit = track.pieces[self.k].velocity_limit;
+                let (t0, u0) = (self.t, self.u);
                 self.t += n as f64 * self.h;
                 self.u += n as f64 * self.v * self.h;
+                while self.k < last && self.ends[self.k] <= self.u {
+                    let Ahead { at, cap, why, .. } = self.known[self.k];
+                    let here = if self.v >= 0.99 * cap { why } else { limit };
+                    observer.crossing(self.k, t0 + (at - u0) / self.v, self.v, here);
+                    self.k += 1;
+                }
+                if let Some(cruise) = &mut self.cruise {
+                    cruise.0 = self.k;
+                }
                 self.count_step();
                 tally!(STEPS);
-                let limit = cap.velocity_limit;
                 let sample = Sample {
                     t: self.t,
                     u: self.u,
@@ -716,24 +727,86 @@ impl Stepper {
     }
 
     /// The periods of a cruise the next steps would take one at a time with nothing to decide (at
-    /// least two), if the motion cruises.
-    fn cruise_periods(&self, track: &Track) -> Option<u64> {
-        let (until, _) = self.cruising(track.pieces.get(self.k)?)?;
+    /// least two), if the motion cruises, and the piece they end on.
+    ///
+    /// They cross the junctions into pieces of the same speed cap (and cause): every junction
+    /// before the cruise's end has a cap above the speed, and a scan from any of those pieces
+    /// would find nothing to bind sooner (it sees the same junctions, up to a window's end no
+    /// nearer; the limits on the way to them are no tighter; and at no acceleration the
+    /// braking's reach does not depend on the piece's jerk), so each of those steps would cruise
+    /// too. The step that crosses into a piece of another cap is taken alone.
+    fn cruise_periods(&self, track: &Track) -> Option<(u64, usize)> {
+        let here = track.pieces.get(self.k)?;
+        let beyond = self.cruising(here)?;
         if self.v <= 0.0 {
             return None;
         }
-        // The steps m = 1, 2, … while u + m·v·h < until.
-        let room = (until - self.u) / (self.v * self.h);
+        let step = self.v * self.h;
+        let mut last = self.k;
+        while self.ends[last] < beyond
+            && last + 1 < self.ends.end()
+            && let Some(junction) = self.known.get(last)
+            && junction.cap >= self.v
+            && let next = &track.pieces[last + 1]
+            && next.velocity == here.velocity
+            && next.velocity_limit == here.velocity_limit
+        {
+            last += 1;
+        }
+        // The steps m = 1, 2, … while u + m·v·h < until, before the last piece's end.
+        let until = beyond.min(self.ends[last] - step);
+        let room = (until - self.u) / step;
         let n = if room.is_finite() && room > 0.0 { room.ceil() as u64 - 1 } else { 0 };
-        (n >= 2).then_some(n)
+        (n >= 2).then_some((n, last))
     }
 
-    /// Where the steps taken at once end and where the cruise ends (the parameters the steps
-    /// stay under, see [`Self::cruise`]), when the motion cruises at the cap of the piece it is
-    /// on (`here`) with nothing ahead within braking reach.
-    fn cruising(&self, here: &Piece) -> Option<(f64, f64)> {
-        let (piece, until, beyond) = self.cruise?;
-        (piece == self.k && self.a == 0.0 && self.v == here.velocity).then_some((until, beyond))
+    /// Where the cruise ends (the parameter the steps stay under, see [`Self::cruise`]), when the
+    /// motion cruises at the cap of the piece it is on (`here`) with nothing ahead within
+    /// braking reach.
+    fn cruising(&self, here: &Piece) -> Option<f64> {
+        let (piece, beyond) = self.cruise?;
+        (piece == self.k && self.a == 0.0 && self.v == here.velocity).then_some(beyond)
+    }
+
+    /// Where a cruise at speed `v` (no acceleration, nothing within reach that could bind) may
+    /// go on to: where junction `m`, the first beyond the `reach` (the limits of the path to it
+    /// `a_path`, `j_path`; `jnow` the piece's jerk), comes into it, or later where a junction on
+    /// from it comes into its own reach, as long as the junctions before it have caps above the
+    /// speed and lead into pieces of the same speed cap (whose steps are taken at once, see
+    /// [`Self::cruise_periods`]), up to the first that could bind (a cap under the speed, a stop,
+    /// the window's end `last`) or [`CRUISE_SCAN`] of them. A scan from any point of the cruise
+    /// before there finds nothing to bind: it stops at that junction at the latest, still beyond
+    /// reach, and the junctions before it never bind at this speed. `None` when the track does
+    /// not hold them yet: what is looked at never depends on how much of the track has come (a
+    /// streamed prediction is the whole one).
+    fn cruise_end(
+        &mut self,
+        track: &Track,
+        m: usize,
+        last: Option<usize>,
+        (v, jnow): (f64, f64),
+        (mut reach, mut a_path, mut j_path): (f64, f64, f64),
+    ) -> Option<f64> {
+        let here = &track.pieces[self.k];
+        let mut x = m;
+        let mut end = self.known[m].at - reach;
+        while self.known[x].cap >= v && !(Some(x) == last && x + 1 < track.len()) && x - m < CRUISE_SCAN {
+            let Some(next) = self.known.get(x + 1) else {
+                return self.wait(Need::Through(m + CRUISE_SCAN));
+            };
+            let piece = &track.pieces[x + 1];
+            if piece.velocity != here.velocity || piece.velocity_limit != here.velocity_limit {
+                break;
+            }
+            x += 1;
+            if next.acceleration < a_path || next.jerk < j_path {
+                a_path = a_path.min(next.acceleration);
+                j_path = j_path.min(next.jerk);
+                reach = scan_reach(v, 0.0, a_path, j_path, jnow);
+            }
+            end = end.max(next.at - reach);
+        }
+        Some(end)
     }
 
     /// The last piece the CNC sees from the current one (the window's end; the track's end), if
@@ -770,6 +843,7 @@ impl Stepper {
         let known = &self.known;
         match need {
             Need::Junction(i) => (!track.known(i)).then_some(need),
+            Need::Through(i) => (!track.complete && !track.known(i)).then_some(need),
             Need::Counted(ordinal) => (!track.complete && ordinal >= track.counted.end()).then_some(need),
             Need::Beyond { next, at, last } => {
                 let ends_scan = |i: usize| known[i].cap <= 0.0 || known[i].at > at || Some(i) == last;
@@ -796,7 +870,7 @@ impl Stepper {
         let here = &track.pieces[self.k];
         // Cruising where nothing can bind yet: the same step again, up to the one that crosses
         // into the next piece (the scan then sets the cruise there).
-        if let Some((_, beyond)) = self.cruising(here)
+        if let Some(beyond) = self.cruising(here)
             && u + v * h < beyond
         {
             let next = advance(u, v, a, 0.0, h);
@@ -931,7 +1005,12 @@ impl Stepper {
                     reach = scan_reach(v, a, a_limit, j_limit, p.jerk);
                 }
                 if at - u1 > reach {
-                    comes_into_reach = Some(at - reach);
+                    let cruises = j == 0.0 && a == 0.0 && v == p.velocity && !could_bind;
+                    comes_into_reach = Some(if cruises {
+                        self.cruise_end(track, m, last, (v, p.jerk), (reach, a_path, j_path))?
+                    } else {
+                        at - reach
+                    });
                     break;
                 }
             }
@@ -1022,7 +1101,7 @@ impl Stepper {
         }
         self.cruise = (j == 0.0 && a == 0.0 && v == p.velocity && !could_bind).then(|| {
             let beyond = comes_into_reach.unwrap_or(f64::NEG_INFINITY);
-            (self.k, beyond.min(self.ends[self.k]) - v * h, beyond - v * h)
+            (self.k, beyond - v * h)
         });
         Some(Choice { j, limit, ahead, next: (u1, v1, a1), clear: !could_bind })
     }
@@ -1052,12 +1131,18 @@ const STEPS_PER_PIECE: u64 = 100_000_000;
 enum Need {
     /// Junction `i`, final ([`Track::known`]).
     Junction(usize),
+    /// The junctions up to `i`, or the whole track, whichever is shorter.
+    Through(usize),
     /// The counted piece of this ordinal (the look-ahead window's end).
     Counted(usize),
     /// The scan of the junctions ahead, out of known ones at junction `next`: a stop, junction
     /// `last` (the window's end), or a junction beyond parameter `at`.
     Beyond { next: usize, at: f64, last: Option<usize> },
 }
+
+/// The most junctions beyond the reach a cruise looks at to see how far it goes on
+/// ([`Stepper::cruise_end`]).
+const CRUISE_SCAN: usize = 256;
 
 /// The lengths of the runs of junctions the scan ahead may pass over at once, longest first.
 const RUNS: [usize; 2] = [16, 4];
@@ -1851,6 +1936,62 @@ mod tests {
             streamed_work as f64 <= 2.0 * whole_work as f64,
             "{streamed_work} junctions examined streamed, {whole_work} whole"
         );
+    }
+
+    #[test]
+    fn a_cruise_over_pieces_of_one_cap_is_taken_at_once_as_its_steps_would_go() {
+        // 3000 pieces of 1.5 to 3 at one speed cap (a few periods each), their other limits each
+        // different, a corner every thousand: the cruises between the corners cross hundreds of
+        // junctions (a handful at a time with a look-ahead of 10 pieces). Taken at once they must
+        // be the motion of the steps taken one by one (the crossings the same, their times to
+        // the rounding), in fewer steps than half the pieces (two a piece at least, were each
+        // crossing a step of its own).
+        let (n, h) = (3000, 0.003);
+        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut pieces = Vec::with_capacity(n);
+        let mut junctions = Vec::with_capacity(n);
+        for i in 0..n {
+            pieces.push(piece(1.5 + 1.5 * next(), 50.0, 2000.0 + 500.0 * next(), 4000.0 + 2000.0 * next()));
+            let cap = match i {
+                _ if i + 1 == n => 0.0,
+                _ if i % 1000 == 999 => 20.0,
+                _ => f64::INFINITY,
+            };
+            let limit = if cap == 0.0 { Limit::Stop } else { Limit::Corner };
+            junctions.push(Junction { cap, limit, dwell: 0.0 });
+        }
+        for window in [usize::MAX, 10] {
+            let track = Track::new(pieces.clone(), junctions.clone(), window, 0.0);
+            work::take();
+            let mut each_period = Record::default();
+            let time_each_period = run(&track, h, &mut each_period);
+            let [steps_each_period, _, _] = work::take();
+            let mut at_once = Everything::default();
+            let time_at_once = run(&track, h, &mut at_once);
+            let [steps_at_once, _, _] = work::take();
+            assert!(
+                (time_at_once - time_each_period).abs() < 1e-9,
+                "window {window}: {time_at_once} s, {time_each_period} s"
+            );
+            assert_eq!(at_once.1.len(), each_period.1.len(), "window {window}: crossings");
+            for (once, each) in at_once.1.iter().zip(&each_period.1) {
+                assert_eq!(once.0, each.0);
+                assert!(
+                    (once.1 - each.1).abs() < 1e-9 && (once.2 - each.2).abs() < 1e-9 * (1.0 + each.2),
+                    "{once:?} against {each:?}"
+                );
+            }
+            assert!(
+                2 * steps_at_once < n as u64 && 10 * steps_at_once < steps_each_period,
+                "window {window}: {steps_at_once} steps at once, {steps_each_period} one by one"
+            );
+        }
     }
 
     #[test]

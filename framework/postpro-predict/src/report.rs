@@ -880,16 +880,26 @@ impl Observer for Observing<'_> {
         if c.samples.is_none() {
             return;
         }
-        // A cruise taken in one go stands for a sample every period: kept each.
+        // A cruise taken in one go stands for a sample every period: kept each, on the piece
+        // it is on (the cruise may cross junctions into pieces of the same cap).
         let periods = s.periods.max(1);
+        let mut piece = s.piece;
         for k in 1..=periods {
             let at = if k == periods {
                 *s
             } else {
                 let share = k as f64 / periods as f64;
-                Sample { t: t0 + (s.t - t0) * share, u: u0 + (s.u - u0) * share, periods: 1, ..*s }
+                let u = u0 + (s.u - u0) * share;
+                let (start, length) = (&self.collector.piece_start, &self.collector.piece_length);
+                while piece > start.base() && u < start[piece] {
+                    piece -= 1;
+                }
+                while piece < s.piece && u >= start[piece] + length[piece] {
+                    piece += 1;
+                }
+                Sample { t: t0 + (s.t - t0) * share, u, piece, periods: 1, ..*s }
             };
-            self.record(&at, block);
+            self.record(&at, seen.owner[at.piece]);
         }
     }
 
