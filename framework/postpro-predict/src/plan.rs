@@ -779,6 +779,7 @@ impl Stepper {
     /// reach, and the junctions before it never bind at this speed. `None` when the track does
     /// not hold them yet: what is looked at never depends on how much of the track has come (a
     /// streamed prediction is the whole one).
+    #[inline(never)]
     fn cruise_end(
         &mut self,
         track: &Track,
