@@ -1706,17 +1706,21 @@ mod tests {
         }
     }
 
-    /// Pieces as a spline's: short, their limits each different (their speed caps in every
-    /// other stretch of 300, else a few), a corner or a stop now and then (a fixed
-    /// pseudo-random sequence).
-    fn uneven_track(n: usize, window: usize) -> Track {
-        let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
-        let mut next = move || {
+    /// A fixed pseudo-random sequence in [0, 1) from `seed` (xorshift).
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
             seed ^= seed << 13;
             seed ^= seed >> 7;
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    /// Pieces as a spline's: short, their limits each different (their speed caps in every
+    /// other stretch of 300, else a few), a corner or a stop now and then (a fixed
+    /// pseudo-random sequence).
+    fn uneven_track(n: usize, window: usize) -> Track {
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let mut pieces = Vec::with_capacity(n);
         let mut junctions = Vec::with_capacity(n);
         for i in 0..n {
@@ -1948,13 +1952,7 @@ mod tests {
         // the rounding), in fewer steps than half the pieces (two a piece at least, were each
         // crossing a step of its own).
         let (n, h) = (3000, 0.003);
-        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(0x9e37_79b9_7f4a_7c15);
         let mut pieces = Vec::with_capacity(n);
         let mut junctions = Vec::with_capacity(n);
         for i in 0..n {
