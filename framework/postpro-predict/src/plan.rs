@@ -747,9 +747,7 @@ impl Stepper {
             && last + 1 < self.ends.end()
             && let Some(junction) = self.known.get(last)
             && junction.cap >= self.v
-            && let next = &track.pieces[last + 1]
-            && next.velocity == here.velocity
-            && next.velocity_limit == here.velocity_limit
+            && same_cap(here, &track.pieces[last + 1])
         {
             last += 1;
         }
@@ -795,8 +793,7 @@ impl Stepper {
             let Some(next) = self.known.get(x + 1) else {
                 return self.wait(Need::Through(m + CRUISE_SCAN));
             };
-            let piece = &track.pieces[x + 1];
-            if piece.velocity != here.velocity || piece.velocity_limit != here.velocity_limit {
+            if !same_cap(here, &track.pieces[x + 1]) {
                 break;
             }
             x += 1;
@@ -1106,6 +1103,12 @@ impl Stepper {
         });
         Some(Choice { j, limit, ahead, next: (u1, v1, a1), clear: !could_bind })
     }
+}
+
+/// True when `next` has the speed cap of `here`, and the same cause: a cruise at that cap goes on
+/// into it as it was (its steps taken at once, [`Stepper::cruise_periods`]).
+fn same_cap(here: &Piece, next: &Piece) -> bool {
+    next.velocity == here.velocity && next.velocity_limit == here.velocity_limit
 }
 
 /// The next step as [`Stepper::choose`] decides it.
