@@ -934,9 +934,9 @@ impl Stepper {
         // The reach only grows as the limits tighten along the scan: computed (with the state and
         // limits of the last tightening) only where it decides whether the scan goes on.
         let mut stale: Option<(f64, f64, f64, f64)> = None;
-        // Where the first junction beyond reach comes into it, and whether any junction could
-        // bind: what a cruise may skip.
-        let mut comes_into_reach = None;
+        // The first junction beyond reach, with the reach and the path's limits there, and
+        // whether any junction could bind: what a cruise may skip.
+        let mut beyond_reach = None;
         let mut could_bind = false;
         // The highest speed the state reaches, once its acceleration is ended along the path: a
         // cap above it is no constraint. Computed again when the state or the path's jerk changes.
@@ -1003,12 +1003,7 @@ impl Stepper {
                     reach = scan_reach(v, a, a_limit, j_limit, p.jerk);
                 }
                 if at - u1 > reach {
-                    let cruises = j == 0.0 && a == 0.0 && v == p.velocity && !could_bind;
-                    comes_into_reach = Some(if cruises {
-                        self.cruise_end(track, m, last, (v, p.jerk), (reach, a_path, j_path))?
-                    } else {
-                        at - reach
-                    });
+                    beyond_reach = Some((m, reach, a_path, j_path));
                     break;
                 }
             }
@@ -1097,10 +1092,17 @@ impl Stepper {
             }
             m += 1;
         }
-        self.cruise = (j == 0.0 && a == 0.0 && v == p.velocity && !could_bind).then(|| {
-            let beyond = comes_into_reach.unwrap_or(f64::NEG_INFINITY);
-            (self.k, beyond - v * h)
-        });
+        self.cruise = if j == 0.0 && a == 0.0 && v == p.velocity && !could_bind {
+            let beyond = match beyond_reach {
+                Some((m, reach, a_path, j_path)) => {
+                    self.cruise_end(track, m, last, (v, p.jerk), (reach, a_path, j_path))?
+                }
+                None => f64::NEG_INFINITY,
+            };
+            Some((self.k, beyond - v * h))
+        } else {
+            None
+        };
         Some(Choice { j, limit, ahead, next: (u1, v1, a1), clear: !could_bind })
     }
 }
