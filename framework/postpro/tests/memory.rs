@@ -4,9 +4,10 @@
 //! few bits per CL point (the branch graph, the linearizer's decisions) and bounded windows;
 //! a stage that kept anything per pose (50 bytes or more) would add tens of MB here.
 //!
-//! Runs of a few hundred thousand points: too slow for the unoptimised build, so the tests are
-//! `#[ignore]`d there and `.ci/run` runs them optimised, with the `sweep` profile:
-//! `cargo test --profile sweep -p postpro --test memory -- --ignored`.
+//! Runs of a few hundred thousand points, a minute on 2 cores: the tests are `#[ignore]`d, out of
+//! the README's test command, and `.ci/run` runs them after it, on the build it made:
+//! `cargo test -p postpro --test memory -- --ignored --skip known_limit`. The `known_limit_`
+//! test holds a limit not yet fixed, and fails: run it by its name.
 
 #![cfg_attr(not(target_os = "linux"), allow(dead_code))] // the peak is said on Linux only
 
@@ -45,26 +46,76 @@ fn programs(dir: &Path) -> Vec<String> {
         .collect()
 }
 
+/// The CL points and the peak memory (MB) of the main job on `file` in `mode` on the Mikron (or
+/// of `check`, for mode `check`).
+fn measure(dir: &Path, mode: &str, file: &str) -> (f64, f64) {
+    let out = format!("{file}.{mode}.mpf");
+    let args: Vec<&str> = match mode {
+        "check" => vec!["check", "--timing", file],
+        _ => vec!["--machine", "mikron", file, "-o", &out, "--mode", mode, "--timing"],
+    };
+    let o = postpro(&args, dir);
+    let _ = std::fs::remove_file(&out);
+    assert_eq!(o.status.code(), Some(0), "postpro {}:\n{}", args.join(" "), stderr(&o));
+    timing(&stderr(&o)).unwrap_or_else(|| panic!("postpro {}: no peak memory said:\n{}", args.join(" "), stderr(&o)))
+}
+
+/// `postpro-examples fine` with its passes joined by feed moves: every `RAPID` record after the
+/// first dropped, so that the motion never stops before the program's end.
+fn without_stops(passes: usize) -> String {
+    let mut rapids = 0;
+    let mut text = String::new();
+    for line in postpro_examples::fine_finishing_file(passes).lines() {
+        if line.trim() == "RAPID" {
+            rapids += 1;
+            if rapids > 1 {
+                continue;
+            }
+        }
+        text.push_str(line);
+        text.push('\n');
+    }
+    text
+}
+
+/// Known limit (docs/validation.md, "B-spline mode: memory on long programs"): in B-spline mode
+/// the prediction's scan ahead ends only at a stop or beyond a braking reach that a short rotary
+/// linking move stretches to metres, so a program without stops is held to its end (47 MB on
+/// 25 k points, 162 MB on 100 k, 1.5 GB on 1 M). The fine program's peak still rises up to
+/// about 100 k points with its stops (49 MB on 25 k, 77 MB on 100 k, 85 MB on 1 M, 88 MB on
+/// 4 M), so the program without stops is held against the same one with them.
 #[test]
 #[cfg(target_os = "linux")]
-#[ignore = "runs of hundreds of thousands of points: run optimised (`.ci/run` does, with the `sweep` profile)"]
+#[ignore = "known limit, not fixed: a B-spline program without stops is held to its end"]
+fn known_limit_a_bspline_program_without_stops_is_held_to_its_end() {
+    const PASSES: usize = 100;
+    let dir = out_dir("memory-without-stops");
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).expect("the program is written");
+        path.to_str().expect("a UTF-8 path").to_string()
+    };
+    let with = write("with-stops.cl", postpro_examples::fine_finishing_file(PASSES));
+    let without = write("without-stops.cl", without_stops(PASSES));
+    let [(points, stopping), (same_points, held)] =
+        [measure(&dir, "bspline", &with), measure(&dir, "bspline", &without)];
+    assert_eq!(points, same_points, "the same CL points with and without the stops");
+    let allowed = SLACK_MB + 0.1 * stopping;
+    assert!(
+        held - stopping <= allowed,
+        "bspline, {points} points: {held:.1} MB without stops against {stopping:.1} MB with them, {allowed:.1} more allowed"
+    );
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+#[ignore = "runs of hundreds of thousands of points: `.ci/run` runs them (`-- --ignored`)"]
 fn peak_memory_does_not_grow_with_the_file() {
     let dir = out_dir("memory");
     let files = programs(&dir);
     let modes = ["g1", "inverse-time", "tcp", "bspline", "check"];
     let cases: Vec<(&str, &String)> = modes.iter().flat_map(|m| files.iter().map(move |f| (*m, f))).collect();
-    let measured = on_two_threads(&cases, |&(mode, file)| {
-        let out = format!("{file}.{mode}.mpf");
-        let args: Vec<&str> = match mode {
-            "check" => vec!["check", "--timing", file],
-            _ => vec!["--machine", "mikron", file, "-o", &out, "--mode", mode, "--timing"],
-        };
-        let o = postpro(&args, &dir);
-        let _ = std::fs::remove_file(&out);
-        assert_eq!(o.status.code(), Some(0), "postpro {}:\n{}", args.join(" "), stderr(&o));
-        timing(&stderr(&o))
-            .unwrap_or_else(|| panic!("postpro {}: no peak memory said:\n{}", args.join(" "), stderr(&o)))
-    });
+    let measured = on_two_threads(&cases, |&(mode, file)| measure(&dir, mode, file));
     let mut report = Vec::new();
     for (k, pair) in measured.chunks(2).enumerate() {
         let [(points, small), (more_points, large)] = [pair[0], pair[1]];

@@ -15,9 +15,10 @@
 //! inch, verbatim inserts, TCP vectors), and through `predict` and `solve`, which stream the file
 //! as the main job does.
 //!
-//! About 3 000 runs: too many for the unoptimised build, so the tests are `#[ignore]`d there and
-//! `.ci/run` runs them optimised, with the `sweep` profile (the release build's optimisation,
-//! quicker to build): `cargo test --profile sweep -p postpro --test sweep -- --ignored`.
+//! About 3 000 runs, three minutes on 2 cores: the tests are `#[ignore]`d, out of the README's
+//! test command, and `.ci/run` runs them after it, on the build it made (the tests' profile,
+//! optimised, with overflow checks and debug assertions):
+//! `cargo test -p postpro --test sweep -- --ignored`.
 
 mod programs;
 
@@ -75,7 +76,7 @@ fn run(file: &Path, args: &[&str], out: &Path) -> Option<String> {
 }
 
 #[test]
-#[ignore = "thousands of runs: run optimised (`.ci/run` does, with the `sweep` profile)"]
+#[ignore = "thousands of runs: `.ci/run` runs them (`-- --ignored`)"]
 fn every_file_on_every_machine_in_every_mode_posts_or_says_why() {
     let mut files: Vec<PathBuf> = tests::real_cl_files().into_iter().map(|(_, path)| path).collect();
     files.extend(examples());
@@ -114,7 +115,7 @@ const OPTIONS: &[&[&str]] = &[
 /// Every real file and example on the three real machines with the options of [`OPTIONS`], and
 /// through `predict` and `solve`: a whole program or an error and no file, and never a panic.
 #[test]
-#[ignore = "thousands of runs: run optimised (`.ci/run` does, with the `sweep` profile)"]
+#[ignore = "thousands of runs: `.ci/run` runs them (`-- --ignored`)"]
 fn every_file_posts_or_says_why_with_the_writing_options_and_through_predict_and_solve() {
     let mut files: Vec<PathBuf> = tests::real_cl_files().into_iter().map(|(_, path)| path).collect();
     files.extend(examples());
