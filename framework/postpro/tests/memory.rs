@@ -78,12 +78,10 @@ fn without_stops(passes: usize) -> String {
     text
 }
 
-/// Known limit (docs/validation.md, "B-spline mode: memory on long programs"): in B-spline mode
-/// the prediction's scan ahead ends only at a stop or beyond a braking reach that a short rotary
-/// linking move stretches to metres, so a program without stops is held to its end (47 MB on
-/// 25 k points, 162 MB on 100 k, 1.5 GB on 1 M). The fine program's peak still rises up to
-/// about 100 k points with its stops (49 MB on 25 k, 77 MB on 100 k, 85 MB on 1 M, 88 MB on
-/// 4 M), so the program without stops is held against the same one with them.
+/// Known limit, not fixed: in B-spline mode a program without stops is held to its end (the
+/// cause and the figures: docs/validation.md, "B-spline mode: memory on long programs"). The fine
+/// program's peak rises up to about 100 k points even with its stops, so the program without
+/// them is held against the same one with them rather than against a shorter one.
 #[test]
 #[cfg(target_os = "linux")]
 #[ignore = "known limit, not fixed: a B-spline program without stops is held to its end"]
