@@ -9,11 +9,12 @@
 //! The stepper advances one interpolation period `h` at a time. At each step it takes the
 //! largest jerk such that the next state keeps every cap and can still meet every junction cap
 //! ahead, within the look-ahead window (the CNC must be able to stop at the window's end: that
-//! is what a look-ahead of N blocks means), with the fastest jerk-limited braking. The braking
-//! distances are closed forms, so a step costs a handful of operations plus one test per
-//! junction that braking could reach. The result starts and ends at rest and never exceeds a cap
-//! (up to rounding); how far it is from the time-optimal motion is the switching error of one
-//! period, measured in the tests.
+//! is what a look-ahead of N blocks means), with the fastest jerk-limited braking, taken with the
+//! tightest limits of the pieces on the way to each junction; past a piece that tightens them,
+//! from the junction into it ([`Gate`]). The braking distances are closed forms, so a step costs
+//! a handful of operations plus one test per junction that braking could reach. The result
+//! starts and ends at rest and never exceeds a cap (up to rounding); how far it is from the
+//! time-optimal motion is the switching error of one period, measured in the tests.
 //!
 //! The track may be streamed: pieces are added as the program is read, and the stepper goes as
 //! far as what it holds lets it decide exactly as it would on the whole track (every junction
@@ -843,10 +844,16 @@ impl Stepper {
             Need::Junction(i) => (!track.known(i)).then_some(need),
             Need::Through(i) => (!track.complete && !track.known(i)).then_some(need),
             Need::Counted(ordinal) => (!track.complete && ordinal >= track.counted.end()).then_some(need),
-            Need::Beyond { next, at, last } => {
-                let ends_scan = |i: usize| known[i].cap <= 0.0 || known[i].at > at || Some(i) == last;
+            Need::Beyond { next, at, gate_at, last } => {
+                let ends_scan = |i: usize| {
+                    let ahead = known[i];
+                    ahead.cap <= 0.0
+                        || ahead.at > at
+                        || Some(i) == last
+                        || ((i + 1).is_multiple_of(GATE_STRIDE) && ahead.at > gate_at)
+                };
                 let met = track.complete || (next..known.end()).any(ends_scan);
-                (!met).then_some(Need::Beyond { next: known.end(), at, last })
+                (!met).then_some(Need::Beyond { next: known.end(), at, gate_at, last })
             }
         }
     }
@@ -942,17 +949,32 @@ impl Stepper {
         // cap above it is no constraint. Computed again when the state or the path's jerk changes.
         let peak_of = |v1: f64, a1: f64, j_path: f64| v1 + a1.max(0.0).powi(2) / (2.0 * j_path);
         let mut peak = peak_of(v1, a1, j_path);
+        // The junction into the last piece whose limits tightened the path's ([`Gate`]).
+        let mut gate: Option<Gate> = None;
+        // The scan ended beyond the gate's reach.
+        let mut gated = false;
         let mut m = self.k;
         'scan: loop {
             tally!(JUNCTIONS);
             if last.is_some_and(|last| m > last) {
                 break;
             }
+            // Beyond the gate's reach nothing binds yet either: tested where a run may start, so
+            // that the scan ends at the same junction whether it passes over runs or not.
+            if m.is_multiple_of(GATE_STRIDE)
+                && let Some(gate) = &mut gate
+                && self.known[m - 1].at - gate.at > gate.reach
+                && self.known[m - 1].at - gate.at > gate.refresh()
+            {
+                gated = true;
+                break;
+            }
             // The scan needs a junction the track does not hold yet.
             let Some(&junction) = self.known.get(m) else {
                 // The scan goes on at least to a stop, the window's end, or a junction beyond the
-                // reach it has now (the reach only grows).
-                return self.wait(Need::Beyond { next: m, at: u1 + reach, last });
+                // reach it has now (the reach only grows), or beyond the gate's.
+                let gate_at = gate.as_mut().map_or(f64::INFINITY, |gate| gate.at + gate.refresh());
+                return self.wait(Need::Beyond { next: m, at: u1 + reach, gate_at, last });
             };
             // The longest run starting here whose junctions would each be passed over, at once:
             // no stop, not the window's end, within the reach, and no cap the speed reaches or
@@ -980,9 +1002,21 @@ impl Stepper {
                     if passed {
                         could_bind |= run.cap < peak_run;
                         if tightens {
+                            // The gate the scan of each junction would have come to: into the
+                            // run's last piece that tightens the path's limits.
+                            let a_first = if run.acceleration < a_path { run.lowest.0 } else { 0 };
+                            let j_first = if run.jerk < j_path { run.lowest.1 } else { 0 };
+                            let tight = m + usize::from(a_first.max(j_first));
+                            let mut new = Gate::new(&self.known[tight - 1], &track.pieces[tight]);
+                            for after in tight + 1..m + n {
+                                new.tighten(self.known[after].acceleration, self.known[after].jerk);
+                            }
+                            gate = Some(new);
                             (a_path, j_path) = (a_run, j_run);
                             stale = Some((v1, a1, a_path, j_path));
                             peak = peak_run;
+                        } else if let Some(gate) = &mut gate {
+                            gate.tighten(run.acceleration, run.jerk);
                         }
                         m += n;
                         continue 'scan;
@@ -990,10 +1024,14 @@ impl Stepper {
                 }
             }
             if m > self.k && (junction.acceleration < a_path || junction.jerk < j_path) {
+                // A piece with a limit tighter than the path's: the junction into it is the gate.
+                gate = Some(Gate::new(&self.known[m - 1], &track.pieces[m]));
                 a_path = a_path.min(junction.acceleration);
                 j_path = j_path.min(junction.jerk);
                 stale = Some((v1, a1, a_path, j_path));
                 peak = peak_of(v1, a1, j_path);
+            } else if let Some(gate) = &mut gate {
+                gate.tighten(junction.acceleration, junction.jerk);
             }
             let at = junction.at;
             // Beyond the reach ([`scan_reach`]) nothing binds yet: a junction must be seen
@@ -1070,6 +1108,9 @@ impl Stepper {
                 && !surely_reached(at - u1, v1, a1, cap, a_path, j_path, p.jerk)
                 && let at_j = slack_of((u1, v1, a1))
                 && at_j < 0.0
+                // Not a cap met from wherever the motion crosses the gate: its braking does not
+                // begin before the gate.
+                && gate.as_ref().is_none_or(|gate| !gate.dominates(at, cap, h))
             {
                 limit = why;
                 ahead = true;
@@ -1092,7 +1133,7 @@ impl Stepper {
             }
             m += 1;
         }
-        self.cruise = if j == 0.0 && a == 0.0 && v == p.velocity && !could_bind {
+        self.cruise = if j == 0.0 && a == 0.0 && v == p.velocity && !could_bind && !gated {
             let beyond = match beyond_reach {
                 Some((m, reach, a_path, j_path)) => {
                     self.cruise_end(track, m, last, (v, p.jerk), (reach, a_path, j_path))?
@@ -1142,8 +1183,9 @@ enum Need {
     /// The counted piece of this ordinal (the look-ahead window's end).
     Counted(usize),
     /// The scan of the junctions ahead, out of known ones at junction `next`: a stop, junction
-    /// `last` (the window's end), or a junction beyond parameter `at`.
-    Beyond { next: usize, at: f64, last: Option<usize> },
+    /// `last` (the window's end), a junction beyond parameter `at`, or one beyond `gate_at`
+    /// where the scan tests the gate's reach ([`GATE_STRIDE`]).
+    Beyond { next: usize, at: f64, gate_at: f64, last: Option<usize> },
 }
 
 /// The most junctions beyond the reach a cruise looks at to see how far it goes on
@@ -1153,8 +1195,13 @@ const CRUISE_SCAN: usize = 256;
 /// The lengths of the runs of junctions the scan ahead may pass over at once, longest first.
 const RUNS: [usize; 2] = [16, 4];
 
+/// The scan ahead tests whether it is beyond the gate's reach ([`Gate`]) where a run of any
+/// length may start: each junction of this index ends the one before it.
+const GATE_STRIDE: usize = RUNS[0];
+
 /// What the scan ahead needs of a run of junctions to pass over it at once: the lowest of their
-/// caps and of their pieces' limits, and where the run starts and ends.
+/// caps and of their pieces' limits, where the run starts and ends, and where its gate is
+/// ([`Gate`]).
 #[derive(Clone, Copy, Debug)]
 struct Run {
     first_at: f64,
@@ -1162,12 +1209,24 @@ struct Run {
     cap: f64,
     acceleration: f64,
     jerk: f64,
+    /// The first of the run's pieces with its lowest acceleration, and with its lowest jerk (as
+    /// offsets in the run): the last that tighten the path's limits, where they do.
+    lowest: (u8, u8),
+    /// Junctions taken in.
+    len: u8,
 }
 
 impl Run {
     /// Before any junction.
-    const EMPTY: Run =
-        Run { first_at: 0.0, last_at: 0.0, cap: f64::INFINITY, acceleration: f64::INFINITY, jerk: f64::INFINITY };
+    const EMPTY: Run = Run {
+        first_at: 0.0,
+        last_at: 0.0,
+        cap: f64::INFINITY,
+        acceleration: f64::INFINITY,
+        jerk: f64::INFINITY,
+        lowest: (0, 0),
+        len: 0,
+    };
 
     /// Takes in `junction`, the first of a new run when `first`.
     fn add(&mut self, junction: &Ahead, first: bool) {
@@ -1176,8 +1235,108 @@ impl Run {
         }
         self.last_at = junction.at;
         self.cap = self.cap.min(junction.cap);
-        self.acceleration = self.acceleration.min(junction.acceleration);
-        self.jerk = self.jerk.min(junction.jerk);
+        if junction.acceleration < self.acceleration {
+            self.acceleration = junction.acceleration;
+            self.lowest.0 = self.len;
+        }
+        if junction.jerk < self.jerk {
+            self.jerk = junction.jerk;
+            self.lowest.1 = self.len;
+        }
+        self.len += 1;
+    }
+}
+
+/// The junction into the last piece the scan ahead passed whose acceleration or jerk is tighter
+/// than those of every piece before it (from the motion on).
+///
+/// The scan checks each junction with the tightest limits of the path to it, as if the whole
+/// braking happened on them. Past a piece of far tighter limits (a rotary linking move, whose
+/// path acceleration may be a fraction of a mm/s²), a braking from the speed now would reach
+/// over metres; but the motion crosses the gate under its cap (the tight piece's speed cap among
+/// them) and with an acceleration the piece after it allows ([`Stepper::steps`] clamps it there),
+/// and needs to brake only from there, on the pieces after it. So a junction beyond the gate
+/// whose cap is met from any such crossing, with the limits of the pieces from the gate to it,
+/// does not bind yet: once the motion is past the gate, the scan checks it with those very
+/// limits, and it can be met. Nor does a junction beyond the gate's reach (braking to rest from
+/// the worst crossing), as beyond the scan's own. Which junction is the gate depends on the
+/// pieces between it and the motion only through the tightest of them, which the gate's piece
+/// undercuts: from every state before it, the same junction is the gate for the junctions beyond
+/// it, with the same limits, so a junction passed over as met from the gate is not found
+/// binding too late (the step that crosses the gate scans from past it: the pieces it may enter
+/// are the path's from the start).
+#[derive(Clone, Copy, Debug)]
+struct Gate {
+    /// Where it is, in the parameter.
+    at: f64,
+    /// Its cap on `u̇`.
+    cap: f64,
+    /// The most `|ü|` the motion crosses it with: the next piece's cap on it, and what its jerk
+    /// can end under its speed cap.
+    entry: f64,
+    /// The tightest `|ü|` of the pieces from it to the junction scanned.
+    acceleration: f64,
+    /// The tightest `|u⃛|` of those pieces.
+    jerk: f64,
+    /// How far beyond it a junction can bind ([`scan_reach`] from the worst crossing), or less
+    /// while [`Self::stale`] (it only grows as the limits tighten).
+    reach: f64,
+    /// The reach is not computed for the limits now.
+    stale: bool,
+}
+
+impl Gate {
+    /// Junction `gate`, into piece `next`.
+    fn new(gate: &Ahead, next: &Piece) -> Gate {
+        let entry = next.acceleration.min((2.0 * next.jerk * next.velocity).sqrt());
+        let mut gate = Gate {
+            at: gate.at,
+            cap: gate.cap,
+            entry,
+            acceleration: next.acceleration,
+            jerk: next.jerk,
+            reach: 0.0,
+            stale: true,
+        };
+        gate.reach = gate.least_reach();
+        gate
+    }
+
+    /// Takes in the limits of the next pieces scanned.
+    fn tighten(&mut self, acceleration: f64, jerk: f64) {
+        if acceleration < self.acceleration || jerk < self.jerk {
+            self.acceleration = self.acceleration.min(acceleration);
+            self.jerk = self.jerk.min(jerk);
+            self.reach = self.reach.max(self.least_reach());
+            self.stale = true;
+        }
+    }
+
+    /// No more than the reach, whatever the jerk: braking from the cap at the tightest
+    /// acceleration, where a test need not compute the reach itself.
+    fn least_reach(&self) -> f64 {
+        self.cap * self.cap / (2.0 * self.acceleration)
+    }
+
+    /// The reach for the limits now (computed where [`Self::reach`] is only a bound under it).
+    fn refresh(&mut self) -> f64 {
+        if self.stale {
+            let (amax, jmax) = (self.acceleration, self.jerk);
+            let from = |a: f64| scan_reach(self.cap, a, amax, jmax, jmax);
+            self.reach = from(self.entry).max(from(-self.entry));
+            self.stale = false;
+        }
+        self.reach
+    }
+
+    /// True when a junction at `at` with cap `cap` (on the pieces scanned so far) is met from any
+    /// crossing of the gate, with a period's travel to spare for the steps' rounding (`h`).
+    fn dominates(&self, at: f64, cap: f64, h: f64) -> bool {
+        let (amax, jmax) = (self.acceleration, self.jerk);
+        let from = |a: f64| reach_distance(self.cap, a, cap, amax, jmax, jmax, 0.0);
+        let room = at - self.at;
+        let room = room - self.cap * h - 1e-9 * (1.0 + room.abs());
+        room >= from(self.entry) && room >= from(-self.entry)
     }
 }
 
@@ -1792,6 +1951,70 @@ mod tests {
                 "window {window}: {scanned_by_runs} junctions and runs examined, {scanned_one_by_one} one by one"
             );
         }
+    }
+
+    /// A finishing pass without a stop before its end (pieces of 0.1 at 50, limits in the
+    /// thousands, a corner now and then) with, every 500 pieces, a rotary linking move: a few
+    /// pieces whose caps tighten step by step to a fraction of a unit/s² (a fixed pseudo-random
+    /// sequence).
+    fn linked_track(n: usize, window: usize) -> Track {
+        let mut next = uniform(0x1234_5678_9abc_def1);
+        let mut pieces = Vec::with_capacity(n);
+        let mut junctions = Vec::with_capacity(n);
+        for i in 0..n {
+            let link = i % 500;
+            let p = if (200..208).contains(&link) {
+                let tight = 1.0 + (207 - link) as f64;
+                piece(0.05, 0.3 * tight, 0.5 * tight, 3.0 * tight)
+            } else {
+                piece(0.1, 50.0, 2000.0 + 500.0 * next(), 4000.0 + 1000.0 * next())
+            };
+            pieces.push(p);
+            let cap = match next() {
+                _ if i + 1 == n => 0.0,
+                x if x < 0.01 => 20.0 + 25.0 * next(),
+                _ => f64::INFINITY,
+            };
+            let limit = if cap == 0.0 { Limit::Stop } else { Limit::Corner };
+            junctions.push(Junction { cap, limit, dwell: 0.0 });
+        }
+        Track::new(pieces, junctions, window, 0.0)
+    }
+
+    #[test]
+    fn past_a_piece_of_tight_limits_the_motion_needs_the_track_only_a_little_ahead() {
+        // Without a window, the scan ahead used to take the tight pieces' limits for the braking
+        // from the speed before them: a reach of metres, and a streamed prediction held the
+        // whole track to its end. The motion is the same streamed and whole, by runs and one
+        // by one.
+        const H: f64 = 0.001;
+        let n = 5000;
+        let whole = linked_track(n, usize::MAX);
+        let mut by_runs = Everything::default();
+        let time = run(&whole, H, &mut by_runs);
+        work::ONE_BY_ONE.with(|c| c.set(true));
+        let mut one_by_one = Everything::default();
+        let time_one_by_one = run(&whole, H, &mut one_by_one);
+        work::ONE_BY_ONE.with(|c| c.set(false));
+        assert_eq!(time, time_one_by_one);
+        assert!(by_runs == one_by_one, "the motions differ");
+        let mut builder = TrackBuilder::new(usize::MAX);
+        let mut stepper = Stepper::new(H);
+        let mut streamed = Everything::default();
+        let mut held = 0;
+        for block in 0..n {
+            // The junction before the piece.
+            let j = block.checked_sub(1).map_or(whole.junctions[0], |before| whole.junctions[before]);
+            builder.push(whole.pieces[block], block, j.cap, j.limit, true);
+            assert_eq!(stepper.go(&builder.track, &mut streamed), Progress::Waiting);
+            held = held.max(builder.len() - stepper.piece());
+        }
+        builder.complete();
+        assert_eq!(stepper.go(&builder.track, &mut streamed), Progress::Done);
+        assert_eq!(stepper.time(&builder.track), time);
+        assert!(streamed == by_runs, "streamed, the motion differs");
+        // Fewer than the 500 pieces from one link to the next (the old scan: 4 864).
+        assert!(held < 500, "{held} pieces held ahead of the motion, of {n}");
     }
 
     #[test]
