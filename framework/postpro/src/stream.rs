@@ -293,12 +293,14 @@ struct Predicting<'a> {
     blocks: Blocks,
     predictor: Predictor<'a>,
     marks: MarkFinder,
-    /// Blocks seen since what the prediction no longer needs was last forgotten.
-    unforgotten: usize,
+    /// The number of the prediction's blocks at which what it no longer needs is next forgotten.
+    forget_at: usize,
 }
 
-/// Blocks seen between two forgettings of what the prediction no longer needs (a few hundred
-/// kilobytes held at most).
+/// The prediction's blocks between two forgettings of what it no longer needs (a few hundred
+/// kilobytes held at most). Counted as the prediction counts them, not as motion blocks: a
+/// B-spline run, one motion block, brings one per data point (a whole pass of a finishing
+/// program, where 256 runs held 60 MB).
 const FORGET_EVERY: usize = 256;
 
 impl Predicting<'_> {
@@ -324,9 +326,8 @@ impl Predicting<'_> {
         self.take(done);
         // What the prediction no longer needs is forgotten every so many blocks, not at each:
         // its many windows are looked at once for all of them.
-        self.unforgotten += 1;
-        if self.unforgotten == FORGET_EVERY {
-            self.unforgotten = 0;
+        if self.blocks.len() >= self.forget_at {
+            self.forget_at = self.blocks.len() + FORGET_EVERY;
             let from = self.predictor.needs_from(&self.blocks);
             self.blocks.forget_before(from);
         }
@@ -848,7 +849,7 @@ impl<'a> Passes<'a> {
                 true,
             ),
             marks: MarkFinder::new(marks.rules(prediction)),
-            unforgotten: 0,
+            forget_at: FORGET_EVERY,
         })
     }
 

@@ -77,18 +77,18 @@ fn without_stops(passes: usize) -> String {
     text
 }
 
-/// In B-spline mode (no look-ahead window) a program without stops is not held to its end: its
-/// linking moves turn the rotary axes over a short tip path, and the scan ahead once took their
-/// tiny path acceleration for the braking from the feed before them (docs/validation.md,
-/// "B-spline mode: memory on long programs"; 167.5 MB here then). The fine program's peak rises
-/// up to about 100 k points even with its stops, so the program without them is held against
-/// the same one with them rather than against a shorter one.
+/// In B-spline mode a fine program peaks near the same program in g1, with its stops and without
+/// them (its passes joined by feed moves). Two holds it had (docs/validation.md, "B-spline mode:
+/// memory on long programs"): the prediction was forgotten every 256 motion blocks, each a whole
+/// pass in B-spline mode (78 MB here, where g1 takes 16 MB); and without stops, the scan ahead
+/// took a rotary linking move's tiny path acceleration for the braking from the feed before it
+/// and held the program to its end (167.5 MB).
 #[test]
 #[cfg(target_os = "linux")]
 #[ignore = "runs of a hundred thousand points: `.ci/run` runs them (`-- --ignored`)"]
-fn a_bspline_program_without_stops_is_not_held_to_its_end() {
+fn a_bspline_program_peaks_near_the_same_in_g1_with_its_stops_or_without() {
     const PASSES: usize = 100;
-    let dir = out_dir("memory-without-stops");
+    let dir = out_dir("memory-bspline");
     let write = |name: &str, text: String| {
         let path = dir.join(name);
         std::fs::write(&path, text).expect("the program is written");
@@ -96,14 +96,17 @@ fn a_bspline_program_without_stops_is_not_held_to_its_end() {
     };
     let with = write("with-stops.cl", postpro_examples::fine_finishing_file(PASSES));
     let without = write("without-stops.cl", without_stops(PASSES));
-    let [(points, stopping), (same_points, held)] =
-        [measure(&dir, "bspline", &with), measure(&dir, "bspline", &without)];
-    assert_eq!(points, same_points, "the same CL points with and without the stops");
-    let allowed = SLACK_MB + 0.1 * stopping;
-    assert!(
-        held - stopping <= allowed,
-        "bspline, {points} points: {held:.1} MB without stops against {stopping:.1} MB with them, {allowed:.1} more allowed"
-    );
+    let cases = [("g1", &with), ("bspline", &with), ("g1", &without), ("bspline", &without)];
+    let measured = on_two_threads(&cases, |&(mode, file)| measure(&dir, mode, file));
+    for (pair, stops) in measured.chunks(2).zip(["with its stops", "without stops"]) {
+        let [(points, g1), (same_points, bspline)] = [pair[0], pair[1]];
+        assert_eq!(points, same_points, "{stops}: the same CL points in both modes");
+        let allowed = SLACK_MB + 0.25 * g1;
+        assert!(
+            bspline - g1 <= allowed,
+            "{stops}, {points} points: bspline {bspline:.1} MB against g1 {g1:.1} MB, {allowed:.1} more allowed"
+        );
+    }
 }
 
 #[test]
