@@ -483,7 +483,7 @@ impl Stepper {
             let ahead = Ahead { at: self.ends[i], cap, why, acceleration: piece.acceleration, jerk: piece.jerk };
             self.known.push(ahead);
             for ((run, runs), n) in self.run.iter_mut().zip(&mut self.runs).zip(RUNS) {
-                run.add(&ahead, i.is_multiple_of(n));
+                run.add(&ahead, i % n);
                 if i % n == n - 1 {
                     runs.push(*run);
                 }
@@ -963,8 +963,7 @@ impl Stepper {
             // that the scan ends at the same junction whether it passes over runs or not.
             if m.is_multiple_of(GATE_STRIDE)
                 && let Some(gate) = &mut gate
-                && self.known[m - 1].at - gate.at > gate.reach
-                && self.known[m - 1].at - gate.at > gate.refresh()
+                && gate.out_of_reach(self.known[m - 1].at)
             {
                 gated = true;
                 break;
@@ -1006,7 +1005,7 @@ impl Stepper {
                             // run's last piece that tightens the path's limits.
                             let a_first = if run.acceleration < a_path { run.lowest.0 } else { 0 };
                             let j_first = if run.jerk < j_path { run.lowest.1 } else { 0 };
-                            let tight = m + usize::from(a_first.max(j_first));
+                            let tight = m + a_first.max(j_first);
                             let mut new = Gate::new(&self.known[tight - 1], &track.pieces[tight]);
                             for after in tight + 1..m + n {
                                 new.tighten(self.known[after].acceleration, self.known[after].jerk);
@@ -1211,9 +1210,7 @@ struct Run {
     jerk: f64,
     /// The first of the run's pieces with its lowest acceleration, and with its lowest jerk (as
     /// offsets in the run): the last that tighten the path's limits, where they do.
-    lowest: (u8, u8),
-    /// Junctions taken in.
-    len: u8,
+    lowest: (usize, usize),
 }
 
 impl Run {
@@ -1225,25 +1222,23 @@ impl Run {
         acceleration: f64::INFINITY,
         jerk: f64::INFINITY,
         lowest: (0, 0),
-        len: 0,
     };
 
-    /// Takes in `junction`, the first of a new run when `first`.
-    fn add(&mut self, junction: &Ahead, first: bool) {
-        if first {
+    /// Takes in `junction`, at `offset` in the run (0: the first of a new run).
+    fn add(&mut self, junction: &Ahead, offset: usize) {
+        if offset == 0 {
             *self = Run { first_at: junction.at, ..Run::EMPTY };
         }
         self.last_at = junction.at;
         self.cap = self.cap.min(junction.cap);
         if junction.acceleration < self.acceleration {
             self.acceleration = junction.acceleration;
-            self.lowest.0 = self.len;
+            self.lowest.0 = offset;
         }
         if junction.jerk < self.jerk {
             self.jerk = junction.jerk;
-            self.lowest.1 = self.len;
+            self.lowest.1 = offset;
         }
-        self.len += 1;
     }
 }
 
@@ -1316,6 +1311,12 @@ impl Gate {
     /// acceleration, where a test need not compute the reach itself.
     fn least_reach(&self) -> f64 {
         self.cap * self.cap / (2.0 * self.acceleration)
+    }
+
+    /// True when a junction at `at` is beyond the reach, which is computed only where the bound
+    /// under it does not tell.
+    fn out_of_reach(&mut self, at: f64) -> bool {
+        at - self.at > self.reach && at - self.at > self.refresh()
     }
 
     /// The reach for the limits now (computed where [`Self::reach`] is only a bound under it).

@@ -33,15 +33,18 @@ fn timing(said: &str) -> Option<(f64, f64)> {
     Some((points, peak))
 }
 
+/// Writes `text` as `name` in `dir`; its path.
+fn written(dir: &Path, name: &str, text: String) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("the program is written");
+    path.to_str().expect("a UTF-8 path").to_string()
+}
+
 /// Writes the two programs; their paths.
 fn programs(dir: &Path) -> Vec<String> {
     SIZES_MIB
         .iter()
-        .map(|mib| {
-            let path = dir.join(format!("big-{mib}.cl"));
-            std::fs::write(&path, postpro_examples::big_goto_file(mib << 20)).expect("the program is written");
-            path.to_str().expect("a UTF-8 path").to_string()
-        })
+        .map(|mib| written(dir, &format!("big-{mib}.cl"), postpro_examples::big_goto_file(mib << 20)))
         .collect()
 }
 
@@ -89,13 +92,8 @@ fn without_stops(passes: usize) -> String {
 fn a_bspline_program_peaks_near_the_same_in_g1_with_its_stops_or_without() {
     const PASSES: usize = 100;
     let dir = out_dir("memory-bspline");
-    let write = |name: &str, text: String| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).expect("the program is written");
-        path.to_str().expect("a UTF-8 path").to_string()
-    };
-    let with = write("with-stops.cl", postpro_examples::fine_finishing_file(PASSES));
-    let without = write("without-stops.cl", without_stops(PASSES));
+    let with = written(&dir, "with-stops.cl", postpro_examples::fine_finishing_file(PASSES));
+    let without = written(&dir, "without-stops.cl", without_stops(PASSES));
     let cases = [("g1", &with), ("bspline", &with), ("g1", &without), ("bspline", &without)];
     let measured = on_two_threads(&cases, |&(mode, file)| measure(&dir, mode, file));
     for (pair, stops) in measured.chunks(2).zip(["with its stops", "without stops"]) {
