@@ -13,8 +13,11 @@
 //! tightest limits of the pieces on the way to each junction; past a piece that tightens them,
 //! from the junction into it ([`Gate`]). The braking distances are closed forms, so a step costs
 //! a handful of operations plus one test per junction that braking could reach. The result
-//! starts and ends at rest and never exceeds a cap (up to rounding); how far it is from the
-//! time-optimal motion is the switching error of one period, measured in the tests.
+//! starts and ends at rest and keeps the caps (up to rounding) on the bundled examples; how far
+//! it is from the time-optimal motion is the switching error of one period per braking. Where
+//! a braking takes a period or two, into pieces of tighter jerk and past rotary linking moves,
+//! it can cross a junction above its cap, and the periods lost add up on programs of many
+//! corners (docs/validation.md, known limits; the ignored tests below).
 //!
 //! The track may be streamed: pieces are added as the program is read, and the stepper goes as
 //! far as what it holds lets it decide exactly as it would on the whole track (every junction
@@ -2016,6 +2019,42 @@ mod tests {
         assert!(streamed == by_runs, "streamed, the motion differs");
         // Fewer than the 500 pieces from one link to the next (the old scan: 4 864).
         assert!(held < 500, "{held} pieces held ahead of the motion, of {n}");
+    }
+
+    /// Known limit (docs/validation.md, "Corners crossed above their caps"): into pieces of
+    /// far tighter limits (a rotary linking move), the scan meets the tight pieces only within
+    /// the braking reach of the loose ones, then finds their caps binding with their limits and
+    /// cannot meet them. Here the second link's first tight corner is crossed at 2.25 for a cap of
+    /// 2.1, and the fifth link's last at 1.98 for a cap of 0.3.
+    #[test]
+    #[ignore = "known limit: past pieces of far tighter limits, caps are crossed above (docs/validation.md)"]
+    fn past_pieces_of_far_tighter_limits_every_cap_holds() {
+        let track = linked_track(5000, usize::MAX);
+        let mut motion = Everything::default();
+        run(&track, 0.001, &mut motion);
+        for &(junction, _, v, _) in &motion.1 {
+            let (cap, _) = track.junction_cap(junction);
+            assert!(v <= cap * (1.0 + 1e-5), "junction {junction} crossed at {v} for a cap of {cap}");
+        }
+    }
+
+    /// Known limit (docs/validation.md, "Corners crossed above their caps"): the step that may
+    /// cross into a piece of tighter jerk takes that jerk for the whole period, while the scan
+    /// plans the braking to the corner with the jerk of the piece before it; braking planned to
+    /// end in the last periods cannot. Modelled on a plunge in `shimemcunha.apt` on the MAHO
+    /// (inverse time): the corner is crossed at 0.355 for a cap of 0.043, and the motion is
+    /// 45 ms slower than the same track stepped at a 64th of the period.
+    #[test]
+    #[ignore = "known limit: a step into a piece of tighter jerk cannot brake as the scan planned (docs/validation.md)"]
+    fn into_a_piece_of_tighter_jerk_the_corner_is_crossed_within_its_cap() {
+        let (h, w, tighter) = (0.008, 0.043_403, 35.0);
+        let (a, j) = (480.0, 4800.0);
+        let pieces = vec![piece(1.679, 1.0, a, j), piece(0.72, 1.0, a / tighter, j / tighter)];
+        let (t, record) = stepped(pieces.clone(), &[w, 0.0], h);
+        let (fine, _) = stepped(pieces, &[w, 0.0], h / 64.0);
+        let (_, _, crossed) = record.1[0];
+        assert!(crossed <= w * (1.0 + 1e-9), "crossed at {crossed} for a cap of {w}");
+        assert!((t - fine).abs() < 2.0 * h, "{t} s against {fine} s");
     }
 
     #[test]
