@@ -410,6 +410,13 @@ pub struct Stepper {
     abandoned: u64,
 }
 
+/// The lowest jerk of a step of `h` from acceleration `a`, at most `jerk` and keeping `|ü|` at
+/// most `acceleration`.
+#[inline]
+fn strongest_braking(jerk: f64, acceleration: f64, a: f64, h: f64) -> f64 {
+    (-jerk).max((-acceleration - a) / h)
+}
+
 /// The state after `h` at constant jerk `j`.
 #[inline]
 fn advance(u: f64, v: f64, a: f64, j: f64, h: f64) -> (f64, f64, f64) {
@@ -573,7 +580,7 @@ impl Stepper {
             // piece it may enter at once where even the strongest braking crosses.
             let crosses = self.k < self.ends.end() && {
                 let here = &track.pieces[self.k];
-                let floor = (-here.jerk).max((-here.acceleration - self.a) / self.h);
+                let floor = strongest_braking(here.jerk, here.acceleration, self.a, self.h);
                 advance(self.u, self.v, self.a, floor, self.h).0 >= self.ends[self.k]
             };
             let Some(mut choice) = self.choose(track, crosses) else {
@@ -957,7 +964,7 @@ impl Stepper {
         }
         // The strongest braking: the jerk, and the current piece's acceleration (a junction
         // into a piece with less clamps the acceleration there, see `steps`).
-        let floor = (-p.jerk).max((-track.pieces[self.k].acceleration - a) / h);
+        let floor = strongest_braking(p.jerk, track.pieces[self.k].acceleration, a, h);
         if j <= floor {
             self.cruise = None;
             let next = advance(u, v, a, floor, h);
