@@ -14,9 +14,11 @@
 //! from the junction into it ([`Gate`]). The braking distances are closed forms, so a step costs
 //! a handful of operations plus one test per junction that braking could reach. The result
 //! starts and ends at rest and keeps the caps (up to rounding) on the bundled examples; how far
-//! it is from the time-optimal motion is the switching error of one period per braking. Where
-//! a braking takes a period or two, and past rotary linking moves, it can cross a junction above
-//! its cap, and the periods lost add up on programs of many corners (docs/validation.md, known
+//! it is from the time-optimal motion is the switching error of one period per braking. A
+//! period whose braking its one step of constant jerk cannot follow (shorter than the period,
+//! or built up within it: the slow blocks of inverse time) is taken in sub-steps, its last
+//! sample reported ([`SPLIT`]). Past rotary linking moves it can still cross a junction above its
+//! cap, and the periods lost add up on programs of many corners (docs/validation.md, known
 //! limits; the ignored test below). A step takes the caps of the piece it is on, and those of
 //! every piece it may enter only where it crosses into them ([`Stepper::steps`]).
 //!
@@ -408,7 +410,28 @@ pub struct Stepper {
     guard: (usize, u64),
     steps_per_piece: u64,
     abandoned: u64,
+    /// A period being taken in sub-steps ([`SPLIT`]): per level, outermost first, the step it
+    /// splits and the sub-steps left of it. `h` is the innermost sub-step's.
+    split: Vec<(f64, u32)>,
+    /// The sample of the last sub-step, reported once the period it ends is over.
+    split_sample: Option<Sample>,
 }
+
+/// A step that would cross a junction above its cap (by more than [`SPLIT_OVER`]), or that
+/// misses a cap ahead only because its deceleration reaches its cap within the period, is taken
+/// again in this many sub-steps, and so on down [`SPLIT_LEVELS`] levels: a braking shorter than
+/// a period, or of a few periods whose deceleration builds in less than one (the slow blocks of
+/// inverse time, where the parameter's limits scale with 1/F and 1/F²), is then followed within
+/// it, as a CNC planning in continuous time and sampling at its period does. Only the period's
+/// last sample is reported.
+const SPLIT: u32 = 8;
+/// See [`SPLIT`]: down to a 4 096th of the period (at most 4 096 sub-steps in a period; a
+/// braking needs a level or two).
+const SPLIT_LEVELS: usize = 4;
+/// A crossing above its cap by less than this share is the steps' rounding of the braking
+/// curve, not split ([`SPLIT`]): split too, such crossings brake harder than the finer stepping
+/// does (over the corpus, docs/validation.md).
+const SPLIT_OVER: f64 = 1e-2;
 
 /// The lowest jerk of a step of `h` from acceleration `a`, at most `jerk` and keeping `|ü|` at
 /// most `acceleration`.
@@ -446,6 +469,8 @@ impl Stepper {
             guard: (0, 0),
             steps_per_piece: STEPS_PER_PIECE,
             abandoned: 0,
+            split: Vec::new(),
+            split_sample: None,
         }
     }
 
@@ -537,7 +562,10 @@ impl Stepper {
     fn steps(&mut self, track: &Track, observer: &mut dyn Observer) -> Progress {
         let skip = !observer.every_period();
         loop {
-            if skip && let Some((n, last)) = self.cruise_periods(track) {
+            if skip
+                && self.split.is_empty()
+                && let Some((n, last)) = self.cruise_periods(track)
+            {
                 // Cruising at the piece's cap with nothing ahead within braking reach: the next
                 // `n` steps are all the same, taken at once, across the junctions they cross into
                 // pieces of the same cap, up to piece `last` (each crossing reported as its step
@@ -592,7 +620,16 @@ impl Stepper {
                 };
                 choice = crossing;
             }
-            let Choice { j, limit, ahead, next: (u1, v1, a1), clear, .. } = choice;
+            let Choice { j, limit, ahead, next: (u1, v1, a1), clear, shorter_steps_meet, .. } = choice;
+            let crossing = self.ends.get(self.k).is_some_and(|&end| u1 >= end);
+            if (shorter_steps_meet || crossing && self.crosses_above_cap(j, u1, v1)) && self.split.len() < SPLIT_LEVELS
+            {
+                // Taken again in sub-steps ([`SPLIT`]).
+                self.split.push((self.h, SPLIT));
+                self.h /= f64::from(SPLIT);
+                self.cruise = None;
+                continue;
+            }
             tally!(STEPS);
             self.count_step();
             let piece = track.pieces[self.k];
@@ -610,6 +647,7 @@ impl Stepper {
                 && self.ends[self.k] - self.u <= self.v * tau + 1e-12
             {
                 // The braking's last phase ends within this step: the stop, exactly.
+                self.end_split();
                 self.t += tau.max(braking());
                 self.u = self.ends[self.k];
                 self.v = 0.0;
@@ -650,6 +688,7 @@ impl Stepper {
                 self.k += 1;
             }
             if crossed_stop {
+                self.end_split();
                 observer.sample(&Sample::at_rest(self.t, self.u, j, self.k - 1, Limit::Stop, true));
                 if Some(self.k) == n {
                     return Progress::Done;
@@ -663,6 +702,8 @@ impl Stepper {
                 let tau = if self.v > 0.0 { time_to_rest(self.v, self.a, j, self.h) } else { self.h };
                 let (u_rest, _, _) = advance(self.u, self.v, self.a, j, tau);
                 let tau = final_phase(self.a, j, self.h).unwrap_or(tau).max(braking());
+                // From here the period's rounding judges the bit left, split or not.
+                self.end_split();
                 let at = self.ends[self.k];
                 let rest = (at - u_rest).max(0.0);
                 self.t += tau;
@@ -742,7 +783,72 @@ impl Stepper {
                 ahead,
                 periods: 1,
             };
+            if self.split.is_empty() {
+                observer.sample(&sample);
+            } else {
+                self.sub_step_taken(sample, observer);
+            }
+        }
+    }
+
+    /// True when the step to `(u1, v1)` at jerk `j` crosses a junction (not a stop) above its
+    /// cap, by more than [`SPLIT_OVER`].
+    #[inline(never)]
+    fn crosses_above_cap(&self, j: f64, u1: f64, v1: f64) -> bool {
+        let (u, v, a, h) = (self.u, self.v, self.a, self.h);
+        // The highest speed over the step: at an end, or where the acceleration changes sign.
+        let turn = if a > 0.0 && j < 0.0 { -a / j } else { h };
+        let highest = if turn < h { v + a * turn / 2.0 } else { v.max(v1) };
+        let over = |speed: f64, cap: f64| speed > cap * (1.0 + SPLIT_OVER) + 1e-12;
+        let mut m = self.k;
+        while m < self.ends.end() && u1 >= self.ends[m] {
+            let cap = self.known[m].cap;
+            if cap <= 0.0 {
+                return false;
+            }
+            if over(highest, cap) {
+                let tau = time_to(u, v, a, j, self.ends[m], h);
+                if over(advance(u, v, a, j, tau).1, cap) {
+                    return true;
+                }
+            }
+            m += 1;
+        }
+        false
+    }
+
+    /// A sub-step of a split period is taken: the period's sample is reported once its last
+    /// sub-step is.
+    fn sub_step_taken(&mut self, sample: Sample, observer: &mut dyn Observer) {
+        self.split_sample = Some(sample);
+        while let Some((h, left)) = self.split.last_mut() {
+            *left -= 1;
+            if *left > 0 {
+                return;
+            }
+            self.h = *h;
+            self.split.pop();
+        }
+        // A cruise set by a sub-step holds for sub-steps.
+        self.cruise = None;
+        if let Some(sample) = self.split_sample.take() {
             observer.sample(&sample);
+        }
+    }
+
+    /// The interpolation period: the step's, or the one it splits ([`SPLIT`]).
+    fn period(&self) -> f64 {
+        self.split.first().map_or(self.h, |&(h, _)| h)
+    }
+
+    /// Ends a split period where the motion comes to rest within it (the sample at rest is the
+    /// period's): the steps go on from there at the period.
+    fn end_split(&mut self) {
+        if let Some(&(h, _)) = self.split.first() {
+            self.h = h;
+            self.split.clear();
+            self.split_sample = None;
+            self.cruise = None;
         }
     }
 
@@ -895,7 +1001,7 @@ impl Stepper {
     /// hold enough yet to say. Under the caps of the piece the motion is on; with `crossing`,
     /// under those of every piece the step may enter too.
     fn choose(&mut self, track: &Track, crossing: bool) -> Option<Choice> {
-        let h = self.h;
+        let (h, period) = (self.h, self.period());
         let (u, v, a) = (self.u, self.v, self.a);
         if !track.known(self.k) {
             return self.wait(Need::Junction(self.k));
@@ -914,6 +1020,7 @@ impl Stepper {
                 tighter_ahead: false,
                 next,
                 clear: true,
+                shorter_steps_meet: false,
             });
         }
         // With `crossing`, the caps of every piece this step may enter: the jerk and acceleration
@@ -968,7 +1075,15 @@ impl Stepper {
         if j <= floor {
             self.cruise = None;
             let next = advance(u, v, a, floor, h);
-            return Some(Choice { j: floor, limit, ahead: false, tighter_ahead, next, clear: false });
+            return Some(Choice {
+                j: floor,
+                limit,
+                ahead: false,
+                tighter_ahead,
+                next,
+                clear: false,
+                shorter_steps_meet: false,
+            });
         }
         // Junctions ahead, within the window and within braking reach: decided on a copy of the
         // state, committed once the track held all it needed.
@@ -985,6 +1100,8 @@ impl Stepper {
         // whether any junction could bind: what a cruise may skip.
         let mut beyond_reach = None;
         let mut could_bind = false;
+        // A cap ahead only shorter steps meet.
+        let mut shorter_steps_meet = false;
         // The highest speed the state reaches, once its acceleration is ended along the path: a
         // cap above it is no constraint. Computed again when the state or the path's jerk changes.
         let peak_of = |v1: f64, a1: f64, j_path: f64| v1 + a1.max(0.0).powi(2) / (2.0 * j_path);
@@ -1109,9 +1226,9 @@ impl Stepper {
             // A state on the braking curve itself fits: the rounding of one step must not push it
             // off (it would brake too hard, stop short and creep to the end). Nor must a step
             // that ends a hair beyond it: the deceleration may still be easing at the junction
-            // if the next piece's jerk ends it within a period.
+            // if the next piece's jerk ends it within a period (the CNC's, in a split one).
             let next = track.pieces.get(m + 1);
-            let late = next.map_or(0.0, |next| h * (next.jerk / j_path).min(1.0));
+            let late = next.map_or(0.0, |next| period * (next.jerk / j_path).min(1.0));
             let slack_of = |(u1, v1, a1): (f64, f64, f64)| {
                 let room = at - u1;
                 room - reach_distance(v1, a1, cap, a_path, j_path, p.jerk, late) + 1e-9 * (1.0 + room.abs())
@@ -1160,8 +1277,17 @@ impl Stepper {
                         largest_fitting(&slack, (floor, at_floor), (j, at_j))
                     } else {
                         // The strongest braking does not fit either: the state braked too hard
-                        // already, and easing is what helps. The best in the interval.
-                        largest_fitting_unimodal(&slack, (floor, at_floor), (j, at_j))
+                        // already, and easing is what helps, or the braking from now is shorter
+                        // than a period. The best in the interval.
+                        let (best, fits) = largest_fitting_unimodal(&slack, (floor, at_floor), (j, at_j));
+                        // Steps shorter than the period brake harder only where this one's
+                        // deceleration reaches its cap within the period (the braking holds it
+                        // there for the rest).
+                        shorter_steps_meet |= !fits
+                            && floor > -p.jerk
+                            && a > -track.pieces[self.k].acceleration
+                            && slack_of((u, v, a)) >= 0.0;
+                        best
                     };
                     (u1, v1, a1) = advance(u, v, a, j, h);
                     peak = peak_of(v1, a1, j_path);
@@ -1183,7 +1309,7 @@ impl Stepper {
         } else {
             None
         };
-        Some(Choice { j, limit, ahead, tighter_ahead, next: (u1, v1, a1), clear: !could_bind })
+        Some(Choice { j, limit, ahead, tighter_ahead, next: (u1, v1, a1), clear: !could_bind, shorter_steps_meet })
     }
 }
 
@@ -1209,6 +1335,9 @@ struct Choice {
     /// True when no junction within reach has a cap under the speed the motion reaches:
     /// nothing ahead can bind yet.
     clear: bool,
+    /// True when a cap ahead is met by the braking from the state now but by no step of
+    /// constant jerk over the period: steps shorter than it would ([`SPLIT`]).
+    shorter_steps_meet: bool,
 }
 
 /// Far more steps on one piece than any motion takes (a cruise taken in one go counts once):
@@ -1443,9 +1572,9 @@ fn largest_fitting(slack: &dyn Fn(f64) -> f64, (mut lo, mut f_lo): (f64, f64), (
 
 /// The largest jerk in `[lo, hi]` whose `slack` is not negative when `slack` may rise then fall
 /// over the interval: a scan down from `hi`, then regula falsi between the first safe point and
-/// the unsafe one above it; with no safe point, the safest one. Each end comes with its slack,
-/// evaluated already (and not evaluated again).
-fn largest_fitting_unimodal(slack: &dyn Fn(f64) -> f64, (lo, f_lo): (f64, f64), (hi, f_hi): (f64, f64)) -> f64 {
+/// the unsafe one above it; with no safe point, the safest one (and `false`). Each end comes with
+/// its slack, evaluated already (and not evaluated again).
+fn largest_fitting_unimodal(slack: &dyn Fn(f64) -> f64, (lo, f_lo): (f64, f64), (hi, f_hi): (f64, f64)) -> (f64, bool) {
     const STEPS: usize = 4;
     let mut above = (hi, f_hi);
     let mut best = (f64::NEG_INFINITY, lo);
@@ -1457,14 +1586,14 @@ fn largest_fitting_unimodal(slack: &dyn Fn(f64) -> f64, (lo, f_lo): (f64, f64), 
             _ => slack(x),
         };
         if f >= 0.0 {
-            return if i == 0 { x } else { largest_fitting(slack, (x, f), above) };
+            return (if i == 0 { x } else { largest_fitting(slack, (x, f), above) }, true);
         }
         if f > best.0 {
             best = (f, x);
         }
         above = (x, f);
     }
-    best.1
+    (best.1, false)
 }
 
 /// The time left in a braking's last phase (the deceleration `a` eased to 0 at jerk `j`), when
@@ -2103,6 +2232,29 @@ mod tests {
             if i == 0 {
                 assert!(t - fine < 2.0 * h, "cap {w}: {t} s against {fine} s stepped finer");
             }
+        }
+    }
+
+    /// Inverse time (`u` = programmed time): a plunge at F1.5 into a block at F2000, modelled on
+    /// `peening.aptsource` on the MAHO (8 ms). On the plunge the parameter's limits are those of
+    /// a crawl: braking to the corner takes well under a millisecond (the first three tracks), or
+    /// a few periods with the deceleration built in a fraction of one (the last). Steps of
+    /// constant jerk over the period could not follow either: the corner was crossed at 0.98
+    /// for caps of 0.005, 0.05 and 0.0005 (80 ms sooner than the finer stepping), and at 0.20
+    /// for 0.01. Taken in sub-steps ([`SPLIT`]), the motion meets each cap, 2 to 6 ms slower
+    /// than stepped at a 64th of the period (it halts at the corner where the finer stepping
+    /// crosses it slowly).
+    #[test]
+    fn out_of_a_slow_block_a_braking_shorter_than_a_period_meets_the_corner() {
+        let h = 0.008;
+        for (w, a, j) in [(0.005, 1e4, 1e7), (0.05, 1e3, 1e6), (0.0005, 1e5, 1e9), (0.01, 50.0, 1e5)] {
+            let pieces = vec![piece(1.0, 1.0, a, j), piece(0.01, 0.1, 50.0, 5000.0)];
+            let (t, record) = stepped(pieces.clone(), &[w, 0.0], h);
+            let (fine, _) = stepped(pieces, &[w, 0.0], h / 64.0);
+            let (_, _, crossed) = record.1[0];
+            assert!(crossed <= w * (1.0 + 1e-2), "cap {w}: crossed at {crossed}");
+            assert!(t >= fine, "cap {w}: {t} s against {fine} s stepped finer");
+            assert!(t - fine < 2.0 * h, "cap {w}: {t} s against {fine} s stepped finer");
         }
     }
 
