@@ -622,7 +622,8 @@ impl Stepper {
             }
             let Choice { j, limit, ahead, next: (u1, v1, a1), clear, shorter_steps_meet, .. } = choice;
             let crossing = self.ends.get(self.k).is_some_and(|&end| u1 >= end);
-            if (shorter_steps_meet || crossing && self.crosses_above_cap(j, u1, v1)) && self.split.len() < SPLIT_LEVELS
+            if (shorter_steps_meet || (crossing && self.crosses_above_cap(j, u1, v1)))
+                && self.split.len() < SPLIT_LEVELS
             {
                 // Taken again in sub-steps ([`SPLIT`]).
                 self.split.push((self.h, SPLIT));
