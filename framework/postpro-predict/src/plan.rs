@@ -2241,8 +2241,9 @@ mod tests {
     /// a crawl: braking to the corner takes well under a millisecond (the first three tracks), or
     /// a few periods with the deceleration built in a fraction of one (the last). Steps of
     /// constant jerk over the period could not follow either: the corner was crossed at 0.98
-    /// for caps of 0.005, 0.05 and 0.0005 (80 ms sooner than the finer stepping), and at 0.20
-    /// for 0.01. Taken in sub-steps ([`SPLIT`]), the motion meets each cap, 2 to 6 ms slower
+    /// for caps of 0.005, 0.05 and 0.0005 (for the first two 80 ms sooner than the finer
+    /// stepping; at a 64th of the period the third crossed its corner so too), and at 0.20 for
+    /// 0.01. Taken in sub-steps ([`SPLIT`]), the motion meets each cap, 2 to 6 ms slower
     /// than stepped at a 64th of the period (it halts at the corner where the finer stepping
     /// crosses it slowly).
     #[test]
