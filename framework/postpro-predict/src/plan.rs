@@ -413,8 +413,6 @@ pub struct Stepper {
     /// A period being taken in sub-steps ([`SPLIT`]): per level, outermost first, the step it
     /// splits and the sub-steps left of it. `h` is the innermost sub-step's.
     split: Vec<(f64, u32)>,
-    /// The sample of the last sub-step, reported once the period it ends is over.
-    split_sample: Option<Sample>,
 }
 
 /// A step that would cross a junction above its cap (by more than [`SPLIT_OVER`]), or that
@@ -470,7 +468,6 @@ impl Stepper {
             steps_per_piece: STEPS_PER_PIECE,
             abandoned: 0,
             split: Vec::new(),
-            split_sample: None,
         }
     }
 
@@ -622,7 +619,7 @@ impl Stepper {
             }
             let Choice { j, limit, ahead, next: (u1, v1, a1), clear, shorter_steps_meet, .. } = choice;
             let crossing = self.ends.get(self.k).is_some_and(|&end| u1 >= end);
-            if (shorter_steps_meet || (crossing && self.crosses_above_cap(j, u1, v1)))
+            if (shorter_steps_meet || (crossing && self.crosses_above_cap(j, (u1, v1, a1))))
                 && self.split.len() < SPLIT_LEVELS
             {
                 // Taken again in sub-steps ([`SPLIT`]).
@@ -792,36 +789,33 @@ impl Stepper {
         }
     }
 
-    /// True when the step to `(u1, v1)` at jerk `j` crosses a junction (not a stop) above its
+    /// True when the step to `(u1, v1, a1)` at jerk `j` crosses a junction (not a stop) above its
     /// cap, by more than [`SPLIT_OVER`].
     #[inline(never)]
-    fn crosses_above_cap(&self, j: f64, u1: f64, v1: f64) -> bool {
+    fn crosses_above_cap(&self, j: f64, (u1, v1, a1): (f64, f64, f64)) -> bool {
         let (u, v, a, h) = (self.u, self.v, self.a, self.h);
-        // The highest speed over the step: at an end, or where the acceleration changes sign.
+        // The highest speed over the step, at an end or where the acceleration changes sign: a
+        // junction capped above it needs no crossing speed.
         let turn = if a > 0.0 && j < 0.0 { -a / j } else { h };
         let highest = if turn < h { v + a * turn / 2.0 } else { v.max(v1) };
-        let over = |speed: f64, cap: f64| speed > cap * (1.0 + SPLIT_OVER) + 1e-12;
         let mut m = self.k;
         while m < self.ends.end() && u1 >= self.ends[m] {
             let cap = self.known[m].cap;
             if cap <= 0.0 {
                 return false;
             }
-            if over(highest, cap) {
-                let tau = time_to(u, v, a, j, self.ends[m], h);
-                if over(advance(u, v, a, j, tau).1, cap) {
-                    return true;
-                }
+            let allowed = cap * (1.0 + SPLIT_OVER) + 1e-12;
+            if highest > allowed && !crossed_within((allowed, f64::INFINITY), self.ends[m], (u, v, a), j, h, (v1, a1)) {
+                return true;
             }
             m += 1;
         }
         false
     }
 
-    /// A sub-step of a split period is taken: the period's sample is reported once its last
-    /// sub-step is.
+    /// A sub-step of a split period is taken: the period's sample, the last sub-step's, is
+    /// reported once that is.
     fn sub_step_taken(&mut self, sample: Sample, observer: &mut dyn Observer) {
-        self.split_sample = Some(sample);
         while let Some((h, left)) = self.split.last_mut() {
             *left -= 1;
             if *left > 0 {
@@ -832,9 +826,7 @@ impl Stepper {
         }
         // A cruise set by a sub-step holds for sub-steps.
         self.cruise = None;
-        if let Some(sample) = self.split_sample.take() {
-            observer.sample(&sample);
-        }
+        observer.sample(&sample);
     }
 
     /// The interpolation period: the step's, or the one it splits ([`SPLIT`]).
@@ -848,7 +840,6 @@ impl Stepper {
         if let Some(&(h, _)) = self.split.first() {
             self.h = h;
             self.split.clear();
-            self.split_sample = None;
             self.cruise = None;
         }
     }
