@@ -3,6 +3,7 @@
 
 use std::collections::HashMap;
 use std::io::Write;
+use std::rc::Rc;
 
 use minijinja::{Environment, UndefinedBehavior, Value};
 use postpro_machine::model::Machine;
@@ -814,7 +815,7 @@ enum Piece {
 /// What is known about one shape of motion block.
 enum Shape {
     /// Verified this many times so far (at most two), with its skeleton.
-    Skeleton(Vec<Piece>, u8),
+    Skeleton(Rc<[Piece]>, u8),
     /// Rendered in full every time.
     Full,
 }
@@ -840,6 +841,9 @@ struct Streaming<'s, 'env, 'o> {
     blocks_numbered: u64,
     /// The shape of the block at hand ([`shape_key`]).
     key: String,
+    /// The last shape written through a verified skeleton, and that skeleton: most blocks have
+    /// the shape of the one before, found without a look-up.
+    last_shape: (String, Option<Rc<[Piece]>>),
     line: String,
     /// The line with its block number.
     numbered: String,
@@ -873,6 +877,7 @@ impl<'s, 'env, 'o> Streaming<'s, 'env, 'o> {
             numbers_later: false,
             blocks_numbered: 0,
             key: String::with_capacity(24),
+            last_shape: (String::with_capacity(24), None),
             line: String::with_capacity(128),
             numbered: String::with_capacity(128),
             lines,
@@ -1037,18 +1042,27 @@ impl Streaming<'_, '_, '_> {
             return Ok(());
         };
         let mut line = std::mem::take(&mut self.line);
-        // The usual case, a shape verified already: one look-up.
-        let filled = matches!(
-            self.shapes.get(key.as_str()),
-            Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 && Self::fill(pieces, &block, &mut line)
-        );
+        // The usual case, a shape verified already: the last block's, else one look-up.
+        let filled = match &self.last_shape {
+            (last, Some(pieces)) if last == key => Self::fill(pieces, &block, &mut line),
+            _ => match self.shapes.get(key.as_str()) {
+                Some(Shape::Skeleton(pieces, checked)) if *checked >= 2 => {
+                    self.last_shape.0.clone_from(key);
+                    self.last_shape.1 = Some(Rc::clone(pieces));
+                    Self::fill(pieces, &block, &mut line)
+                }
+                _ => false,
+            },
+        };
         if filled {
             let result = self.write(&line, n);
             self.line = line;
             return result.map(drop);
         }
+        // The shapes may change below: the last one is looked up again.
+        self.last_shape.1 = None;
         if !self.shapes.contains_key(key.as_str()) {
-            let shape = self.skeleton(&block).map_or(Shape::Full, |s| Shape::Skeleton(s, 0));
+            let shape = self.skeleton(&block).map_or(Shape::Full, |s| Shape::Skeleton(s.into(), 0));
             self.shapes.insert(key.clone(), shape);
         }
         let result = match self.shapes.get(key.as_str()) {
@@ -1056,7 +1070,7 @@ impl Streaming<'_, '_, '_> {
                 // Verify the skeleton against the full rendering; keep it only if they agree.
                 let full = self.full(&block)?;
                 let agrees = Self::fill(pieces, &block, &mut line) && line == full;
-                let next = if agrees { Shape::Skeleton(pieces.clone(), checked + 1) } else { Shape::Full };
+                let next = if agrees { Shape::Skeleton(Rc::clone(pieces), checked + 1) } else { Shape::Full };
                 self.shapes.insert(key.clone(), next);
                 self.write(&full, n)
             }
