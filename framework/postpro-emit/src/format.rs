@@ -21,6 +21,13 @@ pub(crate) fn with_number<R>(value: f64, decimals: usize, plus: bool, f: impl Fn
     }
 }
 
+/// The digits of 00 to 99, two bytes each.
+const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
+2021222324252627282930313233343536373839\
+4041424344454647484950515253545556575859\
+6061626364656667686970717273747576777879\
+8081828384858687888990919293949596979899";
+
 /// The text of `value` with `decimals` (at most 9) digits after the point, built in `buffer`
 /// from its right end; `None` out of the exact range of the integer arithmetic.
 fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Option<&str> {
@@ -34,33 +41,39 @@ fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Opti
     // truncation and the fraction left are exact.
     let whole = scaled as u64;
     let units = whole + u64::from(scaled - whole as f64 >= 0.5);
-    // At most a sign, 16 digits, the point and 9 decimals, written from the last digit back.
+    // At most a sign, 16 digits, the point and 9 decimals, written from the last digit back,
+    // two digits at a time: the decimals, then the whole part (at least one digit).
     let mut start = buffer.len();
-    let mut put = |byte: u8| {
-        start -= 1;
-        buffer[start] = byte;
+    let mut put = |bytes: &[u8]| {
+        start -= bytes.len();
+        buffer[start..start + bytes.len()].copy_from_slice(bytes);
     };
+    let pair = |n: u64| &PAIRS[2 * n as usize..2 * n as usize + 2];
     let mut rest = units;
-    for _ in 0..decimals {
-        put(b'0' + (rest % 10) as u8);
+    for _ in 0..decimals / 2 {
+        put(pair(rest % 100));
+        rest /= 100;
+    }
+    if decimals % 2 == 1 {
+        put(&[b'0' + (rest % 10) as u8]);
         rest /= 10;
     }
     if decimals > 0 {
-        put(b'.');
+        put(b".");
     }
-    loop {
-        put(b'0' + (rest % 10) as u8);
-        rest /= 10;
-        if rest == 0 {
-            break;
-        }
+    while rest >= 100 {
+        put(pair(rest % 100));
+        rest /= 100;
     }
+    put(if rest >= 10 { pair(rest) } else { &pair(rest)[1..] });
     if units != 0 && value < 0.0 {
-        put(b'-');
+        put(b"-");
     } else if plus {
-        put(b'+');
+        put(b"+");
     }
-    std::str::from_utf8(&buffer[start..]).ok()
+    // The whole buffer is checked (ASCII: its NULs too), a word at a time, cheaper than the
+    // text's bytes one by one.
+    std::str::from_utf8(buffer).ok()?.get(start..)
 }
 
 /// `value` rounded to `decimals` digits, without trailing zeros (`6.096`, `10`, `0.5`): for
