@@ -24,7 +24,7 @@ use crate::plan::{Limit, Piece, TrackBuilder};
 use crate::window::Window;
 use postpro_kin::Kinematics;
 use postpro_kin::bspline::{Cursor, Spline};
-use postpro_machine::model::Machine;
+use postpro_machine::model::{Axis, Machine};
 
 /// What a piece of a track is, for rebuilding the axis motion from the parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -362,23 +362,7 @@ fn curve_piece(
         acceleration_limit: Limit::TangentialAcceleration,
         jerk_limit: Limit::TangentialJerk,
     };
-    // Paper 003's quick bound, at 0.8 of it so that the curvature terms leave room.
-    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(worst).enumerate() {
-        let index = index as u16;
-        let mut bound = f64::INFINITY;
-        let mut why = Limit::Velocity(index);
-        for (cap, limit) in [
-            (axis.vmax / q1, Limit::Velocity(index)),
-            ((axis.amax / q2).sqrt(), Limit::Acceleration(index)),
-            ((axis.jmax / q3).cbrt(), Limit::Jerk(index)),
-        ] {
-            if cap < bound {
-                bound = cap;
-                why = limit;
-            }
-        }
-        tighten(&mut piece.velocity, &mut piece.velocity_limit, 0.8 * bound, why);
-    }
+    quick_bound(axes, worst, &mut piece.velocity, &mut piece.velocity_limit);
     let v = piece.velocity;
     for (index, (axis, [q1, q2, _])) in axes.iter().zip(worst).enumerate() {
         if *q1 <= 0.0 {
@@ -405,6 +389,37 @@ fn curve_piece(
         tighten(&mut piece.jerk, &mut piece.jerk_limit, j_cap, Limit::Jerk(index));
     }
     (finite(piece), end)
+}
+
+/// Tightens `velocity` to paper 003's quick bound, at 0.8 of it so that the curvature terms
+/// leave room: each axis's least of `vmax/|q_s|`, `sqrt(amax/|q_ss|)` and `cbrt(jmax/|q_sss|)`
+/// (`worst` holds each axis's largest `|q_s|, |q_ss|, |q_sss|`), the first of a tie.
+///
+/// The cube root is monotone, so only an axis whose jerk ratio is the least (to well within
+/// rounding) can give the lowest of the jerk bounds, and only the lowest can tighten the speed
+/// to where it ends: the roots of the others are not taken (they stand at infinity, above every
+/// bound that wins, so the speed and its cause are those of every root taken).
+fn quick_bound(axes: &[Axis], worst: &[[f64; 3]], velocity: &mut f64, why_velocity: &mut Limit) {
+    let jerk_ratio = |axis: &Axis, q3: f64| axis.jmax / q3;
+    let least = axes.iter().zip(worst).map(|(axis, [_, _, q3])| jerk_ratio(axis, *q3)).fold(f64::INFINITY, f64::min);
+    for (index, (axis, [q1, q2, q3])) in axes.iter().zip(worst).enumerate() {
+        let index = index as u16;
+        let ratio = jerk_ratio(axis, *q3);
+        let jerk_bound = if ratio <= least * (1.0 + 1e-12) { ratio.cbrt() } else { f64::INFINITY };
+        let mut bound = f64::INFINITY;
+        let mut why = Limit::Velocity(index);
+        for (cap, limit) in [
+            (axis.vmax / q1, Limit::Velocity(index)),
+            ((axis.amax / q2).sqrt(), Limit::Acceleration(index)),
+            (jerk_bound, Limit::Jerk(index)),
+        ] {
+            if cap < bound {
+                bound = cap;
+                why = limit;
+            }
+        }
+        tighten(velocity, why_velocity, 0.8 * bound, why);
+    }
 }
 
 fn finite(mut piece: Piece) -> Piece {
@@ -451,6 +466,62 @@ mod tests {
         let time = crate::predict(&blocks, kin.as_ref(), &options).totals().cycle_time;
         PIECES.with(|p| p.set(None));
         time
+    }
+
+    /// The quick bound as paper 003 writes it, every root taken.
+    fn quick_bound_every_root(axes: &[Axis], worst: &[[f64; 3]], velocity: &mut f64, why_velocity: &mut Limit) {
+        for (index, (axis, [q1, q2, q3])) in axes.iter().zip(worst).enumerate() {
+            let index = index as u16;
+            let (mut bound, mut why) = (f64::INFINITY, Limit::Velocity(index));
+            for (cap, limit) in [
+                (axis.vmax / q1, Limit::Velocity(index)),
+                ((axis.amax / q2).sqrt(), Limit::Acceleration(index)),
+                ((axis.jmax / q3).cbrt(), Limit::Jerk(index)),
+            ] {
+                if cap < bound {
+                    (bound, why) = (cap, limit);
+                }
+            }
+            tighten(velocity, why_velocity, 0.8 * bound, why);
+        }
+    }
+
+    proptest::proptest! {
+        /// Skipping the cube roots that cannot win changes neither the speed nor its cause: on
+        /// the Mikron's five axes with random limits and derivatives, zeros (an axis that does
+        /// not move) and exact ties (axes alike) among them.
+        #[test]
+        fn the_quick_bound_is_the_one_with_every_root(
+            limits in proptest::collection::vec((0.1f64..1e3, 1.0f64..1e5, 10.0f64..1e7), 5),
+            derivatives in proptest::collection::vec((0usize..4, 0.0f64..1e3, 0.0f64..1e4, 0.0f64..1e6), 5),
+            alike in proptest::collection::vec((0usize..5, 0u64..4), 5),
+            feed in 0.1f64..1e4,
+        ) {
+            let registry = postpro_machine::Registry::builtin().expect("the built-ins load");
+            let mut axes = registry.find("mikron").expect("built in").machine.axes.clone();
+            let mut worst = Vec::new();
+            for (i, ((vmax, amax, jmax), (zeros, q1, q2, q3))) in limits.iter().zip(&derivatives).enumerate() {
+                (axes[i].vmax, axes[i].amax, axes[i].jmax) = (*vmax, *amax, *jmax);
+                // Some derivatives zero: the first `zeros` of the three.
+                let q = [*q1, *q2, *q3];
+                worst.push(std::array::from_fn(|k| if k < *zeros { 0.0 } else { q[k] }));
+            }
+            // Axes made alike another one: ties between them, or near ties (a jerk derivative a
+            // few units of the last place apart, its ratio within rounding of the other's).
+            for (i, &(like, ulps)) in alike.iter().enumerate() {
+                if like < i {
+                    let (limits, mut derivatives) = ((axes[like].vmax, axes[like].amax, axes[like].jmax), worst[like]);
+                    derivatives[2] = f64::from_bits(derivatives[2].to_bits() + ulps);
+                    (axes[i].vmax, axes[i].amax, axes[i].jmax) = limits;
+                    worst[i] = derivatives;
+                }
+            }
+            let (mut fast, mut fast_why) = (feed, Limit::Programmed);
+            quick_bound(&axes, &worst, &mut fast, &mut fast_why);
+            let (mut every, mut every_why) = (feed, Limit::Programmed);
+            quick_bound_every_root(&axes, &worst, &mut every, &mut every_why);
+            proptest::prop_assert_eq!((fast.to_bits(), fast_why), (every.to_bits(), every_why));
+        }
     }
 
     /// Cutting a spline into finer pieces never lengthens the predicted time: each piece's caps
