@@ -1266,7 +1266,13 @@ impl Stepper {
                 if j != floor {
                     let at_floor = slack(floor);
                     j = if at_floor >= 0.0 {
-                        largest_fitting(&slack, (floor, at_floor), (j, at_j))
+                        // A cap the motion would pass as its acceleration ends: the slack jumps
+                        // where the speed that acceleration ends at meets the cap (below it,
+                        // nothing to brake; above, the braking and the end of the acceleration
+                        // before it), and the largest jerk that fits is there.
+                        let jump = velocity_cap_jerk(v, a, cap, j_path.min(p.jerk), h);
+                        let jump = (a + jump * h > 0.0).then_some(jump);
+                        largest_fitting_near(&slack, jump, (floor, at_floor), (j, at_j))
                     } else {
                         // The strongest braking does not fit either: the state braked too hard
                         // already, and easing is what helps, or the braking from now is shorter
@@ -1521,6 +1527,12 @@ struct Ahead {
     jerk: f64,
 }
 
+/// How near the largest jerk that fits in `[lo, hi]` is found: the bracket of the answer at the
+/// end ([`largest_fitting`]).
+fn fitting_tolerance(lo: f64, hi: f64) -> f64 {
+    1e-9 * (hi - lo).abs().max(1e-12)
+}
+
 /// The largest jerk in `[lo, hi]` whose `slack` is not negative, knowing `slack(hi) < 0` and
 /// `slack` falling with the jerk (`lo` when even it does not fit): regula falsi (Illinois), which
 /// converges in a few steps on these smooth curves, ending on the safe side. Each end comes with
@@ -1529,7 +1541,7 @@ fn largest_fitting(slack: &dyn Fn(f64) -> f64, (mut lo, mut f_lo): (f64, f64), (
     if f_lo < 0.0 {
         return lo; // nothing fits: the strongest braking
     }
-    let tolerance = 1e-9 * (hi - lo).abs().max(1e-12);
+    let tolerance = fitting_tolerance(lo, hi);
     let mut side = 0;
     for _ in 0..60 {
         if hi - lo <= tolerance {
@@ -1560,6 +1572,29 @@ fn largest_fitting(slack: &dyn Fn(f64) -> f64, (mut lo, mut f_lo): (f64, f64), (
         }
     }
     lo
+}
+
+/// [`largest_fitting`], where the slack may drop below 0 at a jump rather than cross it: `jump`,
+/// where one may be, is taken when it fits and a hair above it does not, since the largest jerk
+/// that fits is then within the search's tolerance above it, where the search would end only
+/// after halving the interval some thirty times.
+fn largest_fitting_near(
+    slack: &dyn Fn(f64) -> f64,
+    jump: Option<f64>,
+    (lo, f_lo): (f64, f64),
+    (hi, f_hi): (f64, f64),
+) -> f64 {
+    if let Some(jump) = jump
+        && f_lo >= 0.0
+        && let above = jump + fitting_tolerance(lo, hi)
+        && jump > lo
+        && above < hi
+        && slack(jump) >= 0.0
+        && slack(above) < 0.0
+    {
+        return jump;
+    }
+    largest_fitting(slack, (lo, f_lo), (hi, f_hi))
 }
 
 /// The largest jerk in `[lo, hi]` whose `slack` is not negative when `slack` may rise then fall
@@ -2248,6 +2283,44 @@ mod tests {
             assert!(crossed <= w * (1.0 + 1e-2), "cap {w}: crossed at {crossed}");
             assert!(t >= fine, "cap {w}: {t} s against {fine} s stepped finer");
             assert!(t - fine < 2.0 * h, "cap {w}: {t} s against {fine} s stepped finer");
+        }
+    }
+
+    /// At a jump of the slack (a cap the motion would pass as its acceleration ends), the
+    /// largest jerk that fits is the jump, found in two evaluations where the search halves the
+    /// interval to its tolerance; elsewhere (no jump there, a jump that does not fit, a slope)
+    /// the search's own answer.
+    #[test]
+    fn the_largest_jerk_that_fits_is_found_at_a_jump_in_two_evaluations() {
+        fn counted(slack: fn(f64) -> f64, evaluations: &std::cell::Cell<u32>) -> impl Fn(f64) -> f64 + '_ {
+            move |j: f64| {
+                evaluations.set(evaluations.get() + 1);
+                slack(j)
+            }
+        }
+        let step: fn(f64) -> f64 = |j| if j <= 1234.5 { 0.8 - 1e-4 * j } else { -9.0 };
+        let slope: fn(f64) -> f64 = |j| 0.5 - 1e-3 * j;
+        let (lo, hi) = (-4000.0, 4000.0);
+        let tolerance = fitting_tolerance(lo, hi);
+        for (name, slack, jump, at_jump) in [
+            ("the jump", step, Some(1234.5), true),
+            ("a point under the jump", step, Some(1000.0), false),
+            ("a point above the jump", step, Some(2000.0), false),
+            ("a slope", slope, Some(300.0), false),
+            ("no jump", step, None, false),
+        ] {
+            let (searched, near) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
+            let search = counted(slack, &searched);
+            let expected = largest_fitting(&search, (lo, slack(lo)), (hi, slack(hi)));
+            let found = largest_fitting_near(&counted(slack, &near), jump, (lo, slack(lo)), (hi, slack(hi)));
+            assert!(slack(found) >= 0.0, "{name}: {found} does not fit");
+            if at_jump {
+                assert_eq!((found, near.get()), (1234.5, 2), "{name}");
+                assert!(expected <= found && found - expected <= tolerance, "{name}: {expected} against {found}");
+                assert!(searched.get() >= 25, "{name}: the search took {} evaluations", searched.get());
+            } else {
+                assert_eq!(found.to_bits(), expected.to_bits(), "{name}");
+            }
         }
     }
 
