@@ -29,7 +29,9 @@ const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
 8081828384858687888990919293949596979899";
 
 /// The text of `value` with `decimals` (at most 9) digits after the point, built in `buffer`
-/// from its right end; `None` out of the exact range of the integer arithmetic.
+/// from its right end; `None` out of the exact range of the integer arithmetic. The whole of
+/// `buffer` is checked as UTF-8, so it holds ASCII on entry ([`with_number`]'s zeros): a byte
+/// that is not would send the number to the standard formatting, which rounds halves to even.
 fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Option<&str> {
     const POWERS: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
     let decimals = decimals.min(9);
