@@ -228,12 +228,10 @@ impl ItemSink for Accumulator {
             }
             ItemKind::Nurbs(n) => {
                 self.nurbs += 1;
-                let (lo, hi) = n.domain();
-                let steps = 16 * n.control.len();
-                let mut prev = n.point_at(lo);
+                let mut points = n.even_points(16 * n.control.len());
+                let mut prev = points.next().unwrap_or_else(|| n.end());
                 let mut len = 0.0;
-                for k in 1..=steps {
-                    let p = n.point_at(lo + (hi - lo) * k as f64 / steps as f64);
+                for p in points {
                     len += (p - prev).norm();
                     self.extend(p);
                     prev = p;

@@ -39,10 +39,7 @@ pub fn targets_of(item: &Item, chord_tolerance: f64, out: &mut Vec<Target>) {
             }
         }
         ItemKind::Nurbs(c) => {
-            let (lo, hi) = c.domain();
-            let n = (16 * c.control.len()).max(2);
-            for k in 1..=n {
-                let tip = c.point_at(lo + (hi - lo) * k as f64 / n as f64);
+            for tip in c.even_points((16 * c.control.len()).max(2)).skip(1) {
                 out.push(Target {
                     pose: Pose { tip, axis: c.axis },
                     rapid: c.motion == Motion::Rapid,

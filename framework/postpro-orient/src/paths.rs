@@ -277,14 +277,8 @@ fn nurbs_points(n: &Nurbs, from: Option<Point3<f64>>) -> Vec<Point3<f64>> {
     if !well_formed {
         return start.into_iter().chain(Some(n.end())).collect();
     }
-    let (lo, hi) = n.domain();
     let samples = (8 * count).clamp(8, 10_000);
-    let mut points: Vec<Point3<f64>> = start.into_iter().collect();
-    for k in 0..=samples {
-        let u = lo + (hi - lo) * k as f64 / samples as f64;
-        points.push(n.point_at(u));
-    }
-    points
+    start.into_iter().chain(n.even_points(samples)).collect()
 }
 
 #[cfg(test)]
