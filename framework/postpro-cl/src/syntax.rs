@@ -420,6 +420,44 @@ fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement
         }
         nom::Err::Incomplete(_) => SyntaxError { at: text.len(), expected: "more input" },
     };
+    let Head { major, word, body } = head(text)?;
+    let mut issues = SmallVec::new();
+    let body = match body {
+        HeadBody::None => Body::None,
+        HeadBody::Text(t) => Body::Text(t),
+        HeadBody::Args(k) => {
+            let (rest, ()) = args(&text[k..], k, buf, &mut issues).map_err(err)?;
+            debug_assert!(rest.is_empty());
+            Body::Args(buf.as_slice())
+        }
+    };
+    Ok(Statement { major, word, body, issues })
+}
+
+/// A statement's major word and what follows it, its arguments not read yet ([`head`]).
+pub(crate) struct Head<'t> {
+    /// The major word as written, trimmed.
+    pub(crate) major: &'t str,
+    /// The classified major word.
+    pub(crate) word: Word,
+    /// What follows the major word.
+    pub(crate) body: HeadBody<'t>,
+}
+
+/// What follows a major word ([`Head`]).
+pub(crate) enum HeadBody<'t> {
+    /// No slash.
+    None,
+    /// Free text (PPRINT, INSERT, PARTNO, …), trimmed.
+    Text(&'t str),
+    /// Arguments, from this offset in the text on.
+    Args(usize),
+}
+
+/// The major word of the statement in `text`, classified as [`statement`] classifies it, without
+/// reading its arguments: what the pre-scan needs of most records. An error only where the
+/// major word is missing; arguments that would not read are the reader's to report.
+pub(crate) fn head(text: &str) -> Result<Head<'_>, SyntaxError> {
     let lead = text.len() - text.trim_start().len();
     let mut start = lead;
     // A leading sequence number (`N10 GOTO/…`) from card images.
@@ -427,7 +465,6 @@ fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement
         start += n;
     }
     let body_text = &text[start..];
-    let mut issues = SmallVec::new();
 
     // Slash-less free text: `PARTNO PART TO BE MACHINED`, `PPRINT TOOL: D 2,5`.
     let first_token_len = memchr::memchr3(b' ', b'\t', b'/', body_text.as_bytes()).unwrap_or(body_text.len());
@@ -435,7 +472,7 @@ fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement
     let first_word = Word::from_major(first);
     if first_word.is_text() && !body_text[first_token_len..].trim_start().starts_with('/') {
         let rest = &body_text[first_token_len..];
-        return Ok(Statement { major: first, word: first_word, body: Body::Text(rest.trim()), issues });
+        return Ok(Head { major: first, word: first_word, body: HeadBody::Text(rest.trim()) });
     }
 
     let (major, after) = match memchr::memchr(b'/', body_text.as_bytes()) {
@@ -449,15 +486,11 @@ fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Result<Statement
     // Usually the first token is the major word (`PAINT/…`): classified once.
     let word = if major.len() == first.len() { first_word } else { Word::from_major(major) };
     let body = match after {
-        None => Body::None,
-        Some(k) if word.is_text() => Body::Text(body_text[k..].trim()),
-        Some(k) => {
-            let (rest, ()) = args(&body_text[k..], start + k, buf, &mut issues).map_err(err)?;
-            debug_assert!(rest.is_empty());
-            Body::Args(buf.as_slice())
-        }
+        None => HeadBody::None,
+        Some(k) if word.is_text() => HeadBody::Text(body_text[k..].trim()),
+        Some(k) => HeadBody::Args(start + k),
     };
-    Ok(Statement { major, word, body, issues })
+    Ok(Head { major, word, body })
 }
 
 /// The statement of a record whose arguments [`goto_args`] has read: `GOTO` at `major` in `text`.
@@ -524,6 +557,42 @@ mod tests {
     /// Parses with a leaked buffer: fine in tests.
     fn statement(text: &str) -> Result<Statement<'_>, SyntaxError> {
         super::statement(text, Box::leak(Box::new(Args::new())))
+    }
+
+    /// The head of a record is the statement's major word, classified the same, and its free
+    /// text; its arguments are not read, so a record whose arguments do not read has a head.
+    #[test]
+    fn a_record_s_head_is_its_statement_s_major_word() {
+        let records = [
+            "GOTO/1,2,3",
+            "N10 GOTO/1,2,3",
+            "  paint/COLOR,37",
+            "TOOL PATH/VARIABLE_CONTOUR,TOOL,BPR-SNR-323S32",
+            "CIRCLE/115.6198,82.7726,110.0,0.0,0.0,1.0,207.8614,0.06,0.5,30.0,0.0",
+            "RAPID",
+            "END-OF-PATH",
+            "PPRINT/APTCL-SPEC,MAKINO",
+            "PPRINT TOOL: D 2,5",
+            "PARTNO PART TO BE MACHINED",
+            "REMARK * PRO/CLFILE",
+            "MOVE_ATTRIB/ON",
+            "FEDRAT/MMPM,250.0",
+        ];
+        for text in records {
+            let st = statement(text).expect("a statement");
+            let head = head(text).expect("a head");
+            assert_eq!((head.major, head.word), (st.major, st.word), "{text}");
+            match (head.body, st.body) {
+                (HeadBody::None, Body::None) => {}
+                (HeadBody::Text(h), Body::Text(t)) => assert_eq!(h, t, "{text}"),
+                (HeadBody::Args(k), Body::Args(_)) => assert_eq!(&text[k - 1..k], "/", "{text}"),
+                _ => panic!("{text}: another body"),
+            }
+        }
+        let head = head("CIRCLE/1,2,(3").expect("a head");
+        assert_eq!(head.word, Word::Circle);
+        assert!(statement("CIRCLE/1,2,(3").is_err());
+        assert!(super::head("/1,2,3").is_err());
     }
 
     fn nums(s: &Statement<'_>) -> Vec<f64> {

@@ -13,13 +13,16 @@
 //!
 //! Only lines that start like one of these words are looked at. A line whose major word and
 //! text are on the line itself (no `$`) is classified from the line; a line holding a `$`
-//! (a continued record, possibly cut inside the major word) goes through the record splitter
-//! and the statement grammar, exactly as the reader will see it.
+//! (a continued record, possibly cut inside the major word) goes through the record splitter,
+//! exactly as the reader will see it. A record is classified by its major word as the statement
+//! grammar classifies it ([`syntax::head`]) without reading its arguments, but for `UNITS` and
+//! `FEDRAT`, whose unit words are arguments: a record whose arguments do not read still counts
+//! here (an arc record, a vote), and the reader reports it.
 
 use crate::model::{CamSystem, LengthUnit, UnitsInfo, UnitsOrigin};
 use crate::records::{Splitter, Unit as RawUnit, is_listing_line};
 use crate::span::Span;
-use crate::syntax::{self, Body, Statement, Value};
+use crate::syntax::{self, Arg, Body, Head, HeadBody, Value};
 use crate::words::Word;
 
 /// What the pre-scan found.
@@ -173,12 +176,11 @@ enum Classified {
 fn classify(src: &str, start: usize, line: &str, last: bool) -> Classified {
     let units_word =
         line.trim_start().as_bytes().first().is_some_and(|c| matches!(c.to_ascii_uppercase(), b'U' | b'F'));
-    let mut buf = syntax::Args::new();
     // UNITS and FEDRAT go through the splitter for the exact span the summary reports.
     if !line.contains('$') && !units_word {
         // The whole record is on this line.
-        return match syntax::statement(line, &mut buf) {
-            Ok(st) => Classified::Seen(seen(&st, Span::new(start, start + line.len()))),
+        return match syntax::head(line) {
+            Ok(head) => Classified::Seen(seen(&head, &[], Span::new(start, start + line.len()))),
             Err(_) => Classified::Nothing,
         };
     }
@@ -189,23 +191,34 @@ fn classify(src: &str, start: usize, line: &str, last: bool) -> Classified {
         return Classified::PastWindow;
     }
     let Some(RawUnit::Statement(rec)) = unit else { return Classified::Nothing };
+    if !units_word {
+        return match syntax::head(&rec.text) {
+            Ok(head) => Classified::Seen(seen(&head, &[], rec.span)),
+            Err(_) => Classified::Nothing,
+        };
+    }
+    // The unit words are arguments.
     let mut buf = syntax::Args::new();
     match syntax::statement(&rec.text, &mut buf) {
-        Ok(st) => Classified::Seen(seen(&st, rec.span)),
+        Ok(st) => {
+            let text = if let Body::Text(t) = st.body { HeadBody::Text(t) } else { HeadBody::None };
+            Classified::Seen(seen(&Head { major: st.major, word: st.word, body: text }, st.args(), rec.span))
+        }
         Err(_) => Classified::Nothing,
     }
 }
 
-fn seen(st: &Statement<'_>, span: Span) -> Seen {
-    let words = || st.args().iter().filter_map(|a| if let Value::Word(w) = a.value { Some(w) } else { None });
-    let text = if let Body::Text(t) = st.body { t } else { "" };
-    let unit = match st.word {
+/// What the statement of `head`, with arguments `args` where they were read, tells.
+fn seen(head: &Head<'_>, args: &[Arg<'_>], span: Span) -> Seen {
+    let words = || args.iter().filter_map(|a| if let Value::Word(w) = a.value { Some(w) } else { None });
+    let text = if let HeadBody::Text(t) = head.body { t } else { "" };
+    let unit = match head.word {
         Word::Units => words().next().and_then(unit_word),
         Word::Fedrat => words().find_map(feed_unit_word),
         _ => None,
     };
-    let is = |w: &str| st.major.trim().eq_ignore_ascii_case(w);
-    let cam = match st.word {
+    let is = |w: &str| head.major.trim().eq_ignore_ascii_case(w);
+    let cam = match head.word {
         Word::Movarc => Some(Evidence::Vote(CamSystem::Fusion)),
         Word::ToolPath => Some(Evidence::Vote(CamSystem::SiemensNx)),
         Word::OpFeatStart => Some(Evidence::Vote(CamSystem::CamWorks)),
@@ -220,7 +233,7 @@ fn seen(st: &Statement<'_>, span: Span) -> Seen {
         Word::Passive if is("MODE") => Some(Evidence::Vote(CamSystem::Fusion)),
         _ => None,
     };
-    Seen { word: st.word, unit, cam, span }
+    Seen { word: head.word, unit, cam, span }
 }
 
 fn feed_unit_word(w: &str) -> Option<LengthUnit> {
@@ -292,6 +305,16 @@ impl CamEvidence {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Records count by their major word, continued ones too: an arc record whose arguments do
+    /// not read (the reader reports it) is an arc record, and the vocabulary votes.
+    #[test]
+    fn records_count_by_their_major_word() {
+        let src = "TOOL PATH/ZLEVEL,TOOL,MILL\nPAINT/COLOR,3\nGOTO/1,2,3\nCIRCLE/0,0,0,0,0,1,5,(0.06\nCIRCLE/0,0,0,$\n0,0,1,5\nGOTO/1,2,3\n";
+        let pre = prescan(src);
+        assert_eq!(pre.arc_records, 2);
+        assert_eq!(pre.cam, Some(CamSystem::SiemensNx));
+    }
 
     /// A continuation line is part of the record before it, whatever the line ends: with CRLF
     /// too (it used to be read as a line of its own there, after the empty "line" between `\r`
