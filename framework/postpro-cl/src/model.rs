@@ -893,6 +893,21 @@ mod tests {
         c.de_boor(k, u, &mut vec![Vector3::zeros(); p + 1])
     }
 
+    /// A clamped curve of `degree + 1 + extra` control points from `coords`: `degree + 1` equal
+    /// knots at each end, `steps` (some of them 0) between the inner ones, the last a step of 1.
+    fn clamped(degree: usize, extra: usize, steps: &[f64], coords: &[f64]) -> Nurbs {
+        let n = degree + 1 + extra;
+        let control = (0..n).map(|i| Point3::new(coords[3 * i], coords[3 * i + 1], coords[3 * i + 2])).collect();
+        let mut knots = vec![0.0; degree + 1];
+        let mut x = 0.0;
+        for step in steps.iter().take(n - degree - 1) {
+            x += step;
+            knots.push(x);
+        }
+        knots.extend(std::iter::repeat_n(x + 1.0, degree + 1));
+        Nurbs { degree, knots, control, axis: Vector3::z_axis(), motion: Motion::Unset }
+    }
+
     proptest::proptest! {
         /// The span found by bisection is the one a walk finds, at the knots themselves (repeated
         /// ones too), between them and outside the domain: the same points, bit for bit.
@@ -904,19 +919,9 @@ mod tests {
             coords in proptest::collection::vec(-100.0..100.0_f64, 3 * 40),
             at in proptest::collection::vec(-0.2..1.2_f64, 20),
         ) {
-            let n = degree + 1 + extra;
-            let control: Vec<Point3<f64>> = (0..n).map(|i| Point3::new(coords[3 * i], coords[3 * i + 1], coords[3 * i + 2])).collect();
-            // Clamped: degree + 1 equal knots at each end, steps (some of them 0) in between.
-            let mut knots = vec![0.0; degree + 1];
-            let mut x = 0.0;
-            for step in steps.iter().take(n - degree - 1) {
-                x += step;
-                knots.push(x);
-            }
-            let end = x + 1.0;
-            knots.extend(std::iter::repeat_n(end, degree + 1));
-            let curve = Nurbs { degree, knots: knots.clone(), control, axis: Vector3::z_axis(), motion: Motion::Unset };
-            let us = at.iter().map(|t| t * end).chain(knots.iter().copied());
+            let curve = clamped(degree, extra, &steps, &coords);
+            let end = curve.domain().1;
+            let us = at.iter().map(|t| t * end).chain(curve.knots.iter().copied());
             for u in us {
                 proptest::prop_assert_eq!(curve.point_at(u), point_at_by_walking(&curve, u), "u = {}", u);
             }
@@ -935,16 +940,7 @@ mod tests {
             coords in proptest::collection::vec(-100.0..100.0_f64, 3 * 45),
             samples in 0..200_usize,
         ) {
-            let n = degree + 1 + extra;
-            let control: Vec<Point3<f64>> = (0..n).map(|i| Point3::new(coords[3 * i], coords[3 * i + 1], coords[3 * i + 2])).collect();
-            let mut knots = vec![0.0; degree + 1];
-            let mut x = 0.0;
-            for step in steps.iter().take(n - degree - 1) {
-                x += step;
-                knots.push(x);
-            }
-            knots.extend(std::iter::repeat_n(x + 1.0, degree + 1));
-            let curve = Nurbs { degree, knots, control, axis: Vector3::z_axis(), motion: Motion::Unset };
+            let curve = clamped(degree, extra, &steps, &coords);
             let (lo, hi) = curve.domain();
             let points: Vec<Point3<f64>> = curve.even_points(samples).collect();
             proptest::prop_assert_eq!(points.len(), samples + 1);
