@@ -543,11 +543,19 @@ impl Nurbs {
 
     /// De Boor's triangle at `u` in span `k`, in `d` (`degree + 1` points).
     fn de_boor(&self, k: usize, u: f64, d: &mut [Vector3<f64>]) -> Point3<f64> {
+        Point3::from(self.blossom(k, |_| u, d))
+    }
+
+    /// De Boor's triangle in span `k`, in `d` (`degree + 1` points), level `r` (from 1) at
+    /// parameter `at(r)`: the blossom of the curve at those parameters (the point, where they
+    /// are all one).
+    fn blossom(&self, k: usize, at: impl Fn(usize) -> f64, d: &mut [Vector3<f64>]) -> Vector3<f64> {
         let p = self.degree;
         for (j, d) in d.iter_mut().enumerate() {
             *d = self.control[j + k - p].coords;
         }
         for r in 1..=p {
+            let u = at(r);
             for j in (r..=p).rev() {
                 let i = j + k - p;
                 let den = self.knots[i + p + 1 - r] - self.knots[i];
@@ -555,7 +563,7 @@ impl Nurbs {
                 d[j] = d[j - 1] * (1.0 - a) + d[j] * a;
             }
         }
-        Point3::from(d[p])
+        d[p]
     }
 
     /// The points at `samples + 1` parameters spread evenly over the domain, in order
@@ -568,26 +576,13 @@ impl Nurbs {
     }
 
     /// Span `k` as a polynomial in its own parameter s ∈ [0, 1], the coefficient of sʲ in
-    /// `powers[j]`, by way of its Bézier points (`d` is room for de Boor's steps).
+    /// `powers[j]`, by way of its Bézier points (`d` is room for [`Self::blossom`]).
     fn span_powers(&self, k: usize, powers: &mut [Vector3<f64>], d: &mut [Vector3<f64>]) {
         let p = self.degree;
         let (a, b) = (self.knots[k], self.knots[k + 1]);
-        // Bézier point i is the blossom of the curve at a repeated p − i times and b i times:
-        // de Boor's steps, each at its own parameter.
+        // Bézier point i is the blossom of the curve at a repeated p − i times and b i times.
         for (i, point) in powers.iter_mut().enumerate() {
-            for (j, d) in d.iter_mut().enumerate() {
-                *d = self.control[j + k - p].coords;
-            }
-            for r in 1..=p {
-                let u = if r <= i { b } else { a };
-                for j in (r..=p).rev() {
-                    let i = j + k - p;
-                    let den = self.knots[i + p + 1 - r] - self.knots[i];
-                    let alpha = if den > 0.0 { (u - self.knots[i]) / den } else { 0.0 };
-                    d[j] = d[j - 1] * (1.0 - alpha) + d[j] * alpha;
-                }
-            }
-            *point = d[p];
+            *point = self.blossom(k, |r| if r <= i { b } else { a }, d);
         }
         // The coefficient of sʲ is C(p, j)·Δʲb₀.
         for r in 1..p + 1 {

@@ -412,9 +412,9 @@ pub(crate) fn statement<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>) -> Res
     grammar(text, buf, true)
 }
 
-/// The statement grammar itself (every record the GOTO fast path does not take); `numbers`: an
-/// argument list of numbers only is read by [`numbers`] rather than by the combinators.
-fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>, numbers: bool) -> Result<Statement<'b>, SyntaxError> {
+/// The statement grammar itself (every record the GOTO fast path does not take); `fast_numbers`:
+/// an argument list of numbers only is read by [`numbers`] rather than by the combinators.
+fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>, fast_numbers: bool) -> Result<Statement<'b>, SyntaxError> {
     let err = |e: nom::Err<PError<'_>>| match e {
         nom::Err::Error(e) | nom::Err::Failure(e) => {
             SyntaxError { at: text.len() - e.input.len(), expected: e.expected }
@@ -427,7 +427,8 @@ fn grammar<'t: 'b, 'b>(text: &'t str, buf: &'b mut Args<'t>, numbers: bool) -> R
         HeadBody::None => Body::None,
         HeadBody::Text(t) => Body::Text(t),
         HeadBody::Args(k) => {
-            if !(numbers && self::numbers(text.as_bytes(), skip_blanks(text.as_bytes(), k), 0, false, buf).is_some()) {
+            let b = text.as_bytes();
+            if !(fast_numbers && numbers(b, skip_blanks(b, k), 0, false, buf).is_some()) {
                 buf.clear();
                 let (rest, ()) = args(&text[k..], k, buf, &mut issues).map_err(err)?;
                 debug_assert!(rest.is_empty());
