@@ -10,11 +10,16 @@ pub fn push_number<W: std::fmt::Write + ?Sized>(out: &mut W, value: f64, decimal
     });
 }
 
-/// `value` as [`push_number`] writes it, lent to `f` from a buffer on the stack: for a text
-/// compared before it is kept.
-pub(crate) fn with_number<R>(value: f64, decimals: usize, plus: bool, f: impl FnOnce(&str) -> R) -> R {
+/// `value` as [`push_number`] writes it, lent to `f` from a buffer on the stack.
+fn with_number<R>(value: f64, decimals: usize, plus: bool, f: impl FnOnce(&str) -> R) -> R {
+    with_rounded(value, decimals, Rounded::of(value, decimals, plus), f)
+}
+
+/// [`with_number`] from the number's rounding, `rounded` (`Rounded::of` the same arguments): for
+/// a text compared before it is kept.
+pub(crate) fn with_rounded<R>(value: f64, decimals: usize, rounded: Option<Rounded>, f: impl FnOnce(&str) -> R) -> R {
     let mut buffer = [0; 32];
-    match fixed(&mut buffer, value, decimals, plus) {
+    match rounded.and_then(|rounded| written(&mut buffer, rounded)) {
         Some(text) => f(text),
         // Out of the exact range (no machine coordinate is): the standard formatting.
         None => f(&format!("{value:.decimals$}")),
@@ -28,21 +33,41 @@ const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
 6061626364656667686970717273747576777879\
 8081828384858687888990919293949596979899";
 
-/// The text of `value` with `decimals` (at most 9) digits after the point, built in `buffer`
-/// from its right end; `None` out of the exact range of the integer arithmetic. The whole of
-/// `buffer` is checked as UTF-8, so it holds ASCII on entry ([`with_number`]'s zeros): a byte
-/// that is not would send the number to the standard formatting, which rounds halves to even.
-fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Option<&str> {
-    const POWERS: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
-    let decimals = decimals.min(9);
-    let scaled = value.abs() * POWERS[decimals];
-    if scaled.is_nan() || scaled >= 9.0e15 {
-        return None;
+/// A number as a word shows it: rounded half away from zero to `decimals` (at most 9) digits
+/// after the point, with the sign it is written with (never `-0`) and whether a `+` is written.
+/// Two numbers rounded alike are written alike: a word is known unchanged without its text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Rounded {
+    /// The value in units of the last decimal, signed as written.
+    units: i64,
+    decimals: u8,
+    plus: bool,
+}
+
+impl Rounded {
+    /// `value` rounded; `None` out of the exact range of the integer arithmetic (no machine
+    /// coordinate is), where the standard formatting writes it.
+    pub(crate) fn of(value: f64, decimals: usize, plus: bool) -> Option<Rounded> {
+        const POWERS: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
+        let decimals = decimals.min(9);
+        let scaled = value.abs() * POWERS[decimals];
+        if scaled.is_nan() || scaled >= 9.0e15 {
+            return None;
+        }
+        // Rounded half away from zero, as `f64::round`, without its library call: below 2⁵³ the
+        // truncation and the fraction left are exact.
+        let whole = scaled as u64;
+        let units = (whole + u64::from(scaled - whole as f64 >= 0.5)) as i64;
+        let units = if value < 0.0 { -units } else { units };
+        Some(Rounded { units, decimals: decimals as u8, plus })
     }
-    // Rounded half away from zero, as `f64::round`, without its library call: below 2⁵³ the
-    // truncation and the fraction left are exact.
-    let whole = scaled as u64;
-    let units = whole + u64::from(scaled - whole as f64 >= 0.5);
+}
+
+/// The text of `rounded`, built in `buffer` from its right end. The whole of `buffer` is checked
+/// as UTF-8, so it holds ASCII on entry ([`with_rounded`]'s zeros): a byte that is not would send
+/// the number to the standard formatting, which rounds halves to even.
+fn written(buffer: &mut [u8; 32], rounded: Rounded) -> Option<&str> {
+    let Rounded { units, decimals, plus } = rounded;
     // At most a sign, 16 digits, the point and 9 decimals, written from the last digit back,
     // two digits at a time: the decimals, then the whole part (at least one digit).
     let mut start = buffer.len();
@@ -51,7 +76,7 @@ fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Opti
         buffer[start..start + bytes.len()].copy_from_slice(bytes);
     };
     let pair = |n: u64| &PAIRS[2 * n as usize..2 * n as usize + 2];
-    let mut rest = units;
+    let mut rest = units.unsigned_abs();
     for _ in 0..decimals / 2 {
         put(pair(rest % 100));
         rest /= 100;
@@ -68,7 +93,7 @@ fn fixed(buffer: &mut [u8; 32], value: f64, decimals: usize, plus: bool) -> Opti
         rest /= 100;
     }
     put(if rest >= 10 { pair(rest) } else { &pair(rest)[1..] });
-    if units != 0 && value < 0.0 {
+    if units < 0 {
         put(b"-");
     } else if plus {
         put(b"+");
@@ -152,6 +177,34 @@ mod tests {
             let written: u64 = text.trim_start_matches('-').replace('.', "").parse().expect("digits");
             proptest::prop_assert_eq!(Some(written), rounded_units(value, decimals), "{} at {}: {}", value, decimals, text);
         }
+    }
+
+    /// Values near each other, at any decimals, with and without `+`: rounded alike exactly
+    /// when written alike, so the formatter may tell an unchanged word by its rounding.
+    #[test]
+    fn numbers_rounded_alike_are_written_alike() {
+        use super::Rounded;
+        let alike = |a: f64, b: f64, decimals: usize, plus: bool| {
+            let rounded = Rounded::of(a, decimals, plus) == Rounded::of(b, decimals, plus);
+            let written = number(a, decimals, plus) == number(b, decimals, plus);
+            assert_eq!(rounded, written, "{a} and {b} at {decimals} decimals, plus {plus}");
+            rounded
+        };
+        // Zero and the negatives written as zero.
+        assert!(alike(-0.0004, 0.0, 3, false));
+        assert!(alike(-0.0, 0.0004, 3, true));
+        assert!(!alike(-0.0005, 0.0, 3, false));
+        assert!(!alike(0.5, -0.5, 0, true));
+        proptest::proptest!(|(
+            units in -2_000_000_000i64..2_000_000_000,
+            offsets in proptest::array::uniform2(-1.5f64..1.5),
+            decimals in 0usize..10,
+            plus in proptest::bool::ANY,
+        )| {
+            let step = 10f64.powi(-(decimals as i32));
+            let [a, b] = offsets.map(|offset| (units as f64 + offset) * step);
+            alike(a, b, decimals, plus);
+        });
     }
 
     #[test]

@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::EmitError;
 use crate::dialect::{Dialect, TcpOrientation, TcpStyle};
-use crate::format::{push_number, with_number};
+use crate::format::{Rounded, push_number, with_rounded};
 use compact_str::CompactString;
 
 pub use postpro_motion::Mode;
@@ -774,6 +774,21 @@ pub fn build_blocks(
     f.finish()
 }
 
+/// A word as last written: its text, and its rounding where the text was made from one (a word
+/// rounded alike has the same text, known without making it).
+#[derive(Clone, Debug)]
+struct LastWord {
+    text: CompactString,
+    rounded: Option<Rounded>,
+}
+
+impl LastWord {
+    /// A word known by its text only.
+    fn text(text: &str) -> LastWord {
+        LastWord { text: text.into(), rounded: None }
+    }
+}
+
 /// The dialect's words for the motion program's blocks, with the modal state of what was
 /// written last (axis texts, F, feed mode) and the annotations still to place.
 pub(crate) struct Formatter<'a> {
@@ -784,9 +799,9 @@ pub(crate) struct Formatter<'a> {
     /// The first error of the sink (a failed write); later blocks are dropped.
     failed: Option<EmitError>,
     next_n: u32,
-    /// The texts last written, per axis (or per TCP word).
-    written: Vec<Option<CompactString>>,
-    last_feed: Option<String>,
+    /// The words last written, per axis (or per TCP word).
+    written: Vec<Option<LastWord>>,
+    last_feed: Option<LastWord>,
     feed_mode: &'static str,
     /// The annotations, as indices into `options.annotations` in order of step.
     notes: Vec<usize>,
@@ -947,20 +962,39 @@ impl<'a> Formatter<'a> {
         Word { letter: letter.into(), value, text }
     }
 
+    /// The text last written in word slot `slot`.
+    fn written_text(&self, slot: usize) -> Option<&str> {
+        self.written[slot].as_ref().map(|w| w.text.as_str())
+    }
+
     /// The words of the axes in `axes` whose text differs from what was last written (all of
     /// them with `all`).
     fn axis_words(&mut self, joints: &Joints, axes: AxisSet, all: bool) -> Vec<Word> {
         let mut words = Vec::with_capacity(self.machine.axes.len());
         for i in (0..self.machine.axes.len()).filter(|&i| axes.contains(i)) {
             let value = self.axis_value(i, joints[i]);
-            // The text is looked at on the stack: a word is made only where it changed (the
-            // rotary axes of a 3+2 program never do).
-            let changed = with_number(value, self.decimals(i), self.dialect.explicit_plus, |text| {
-                (all || self.written[i].as_deref() != Some(text)).then(|| CompactString::from(text))
+            let decimals = self.decimals(i);
+            let rounded = Rounded::of(value, decimals, self.dialect.explicit_plus);
+            // Rounded as the last word: the same text, not written again (the rotary axes of a
+            // 3+2 program never change).
+            if !all && rounded.is_some() && self.written[i].as_ref().is_some_and(|w| w.rounded == rounded) {
+                continue;
+            }
+            // Else the text is looked at on the stack: a word is made only where it changed.
+            let changed = with_rounded(value, decimals, rounded, |text| {
+                (all || self.written_text(i) != Some(text)).then(|| CompactString::from(text))
             });
-            if let Some(text) = changed {
-                self.written[i] = Some(text.clone());
-                words.push(Word { letter: self.machine.axes[i].letter.as_str().into(), value, text });
+            match changed {
+                Some(text) => {
+                    self.written[i] = Some(LastWord { text: text.clone(), rounded });
+                    words.push(Word { letter: self.machine.axes[i].letter.as_str().into(), value, text });
+                }
+                // The same text (the last word's rounding not known): known from now on.
+                None => {
+                    if let Some(last) = &mut self.written[i] {
+                        last.rounded = rounded;
+                    }
+                }
             }
         }
         words
@@ -981,14 +1015,14 @@ impl<'a> Formatter<'a> {
             let letters = self.dialect.tcp.vector_words().unwrap_or(["I", "J", "K"]);
             [0, 1, 2].map(|c| self.word(letters[c], [a.x, a.y, a.z][c], 7))
         });
-        let changed = |f: &Self, slot: usize, w: &Word| f.written[slot].as_deref() != Some(w.text.as_str());
+        let changed = |f: &Self, slot: usize, w: &Word| f.written_text(slot) != Some(w.text.as_str());
         let vector_changed = vector.as_ref().is_some_and(|v| (0..3).any(|c| changed(self, 3 + c, &v[c])));
         let whole = self.dialect.tcp == TcpStyle::M128 && vector.is_some();
         let all = all || (whole && (vector_changed || (0..3).any(|slot| changed(self, slot, &tip[slot]))));
         let mut words = Vec::with_capacity(9);
         for (slot, word) in tip.into_iter().enumerate() {
             if all || changed(self, slot, &word) {
-                self.written[slot] = Some(word.text.clone());
+                self.written[slot] = Some(LastWord::text(&word.text));
                 words.push(word);
             }
         }
@@ -1008,7 +1042,7 @@ impl<'a> Formatter<'a> {
                     }
                 }
                 for (c, w) in vector.into_iter().enumerate() {
-                    self.written[3 + c] = Some(w.text.clone());
+                    self.written[3 + c] = Some(LastWord::text(&w.text));
                     words.push(w);
                 }
             }
@@ -1057,13 +1091,19 @@ impl<'a> Formatter<'a> {
             FeedWord::PerRevolution(f) => ("per-revolution", f / self.unit, self.dialect.feed_decimals.max(4)),
         };
         self.set_feed_mode(mode);
-        // Looked at on the stack: the F word of most blocks is the last one's.
-        let Some(text) = with_number(value, decimals, false, |text| {
-            (always || self.last_feed.as_deref() != Some(text)).then(|| text.to_string())
+        // The F word of most blocks is the last one's: known by its rounding, else by its text,
+        // looked at on the stack.
+        let rounded = Rounded::of(value, decimals, false);
+        let last = self.last_feed.as_ref();
+        if !always && rounded.is_some() && last.is_some_and(|w| w.rounded == rounded) {
+            return (None, None);
+        }
+        let Some(text) = with_rounded(value, decimals, rounded, |text| {
+            (always || last.map(|w| w.text.as_str()) != Some(text)).then(|| text.to_string())
         }) else {
             return (None, None);
         };
-        self.last_feed = Some(text.clone());
+        self.last_feed = Some(LastWord { text: text.as_str().into(), rounded });
         (Some(text), note.map(|t| clean_comment(self.dialect, t)))
     }
 
@@ -1382,7 +1422,7 @@ impl<'a> Formatter<'a> {
                 peck_next: cycle.peck.map(|(_, next)| plain(self, next)),
                 dwell: cycle.dwell.map(|d| crate::format::number_trimmed(d, 3)),
                 dwell_ms: cycle.dwell.map(|d| crate::format::number_trimmed((d * 1000.0).round(), 0)),
-                feed: feed.or_else(|| self.last_feed.clone()).unwrap_or_default(),
+                feed: feed.or_else(|| self.last_feed.as_ref().map(|w| w.text.to_string())).unwrap_or_default(),
                 pitch,
                 note,
             })));
