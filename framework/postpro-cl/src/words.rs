@@ -60,30 +60,30 @@ pub(crate) enum Word {
 }
 
 /// Known words that carry no motion or machine state: kept as records, not reported as unknown.
-const PASSIVE: &[&str] = &[
-    "PAINT",
-    "MACHIN",
-    "MODE",
-    "SET",
-    "BOX",
-    "MOVE_ATTRIB",
-    "PPFUN",
-    "SYN",
-    "SWITCH",
-    "REWIND",
-    "INTOL",
-    "OUTTOL",
-    "TOLER",
-    "AUTOPS",
-    "SETUP",
-    "CSI_SET_FLUTE_LENGTH",
-    "CSI_SET_EXTENSION_LENGTH",
-    "CLPRNT",
-    "PRINT",
-    "NOPOST",
-    "CUT",
-    "DNTCUT",
-    "ORIGIN",
+const PASSIVE: &[&[u8]] = &[
+    b"PAINT",
+    b"MACHIN",
+    b"MODE",
+    b"SET",
+    b"BOX",
+    b"MOVE_ATTRIB",
+    b"PPFUN",
+    b"SYN",
+    b"SWITCH",
+    b"REWIND",
+    b"INTOL",
+    b"OUTTOL",
+    b"TOLER",
+    b"AUTOPS",
+    b"SETUP",
+    b"CSI_SET_FLUTE_LENGTH",
+    b"CSI_SET_EXTENSION_LENGTH",
+    b"CLPRNT",
+    b"PRINT",
+    b"NOPOST",
+    b"CUT",
+    b"DNTCUT",
+    b"ORIGIN",
 ];
 
 impl Word {
@@ -94,65 +94,65 @@ impl Word {
         if raw.len() == 4 && raw.eq_ignore_ascii_case("GOTO") {
             return Word::Goto;
         }
-        if raw.contains('=') {
-            return Word::AptSource;
-        }
         let mut buf = [0u8; 32];
-        let Some(key) = normalise(raw, &mut buf) else { return Word::Other };
-        if key.contains(',') {
-            let last = key.rsplit(',').next().unwrap_or_default();
-            return if matches!(last, "GOFWD" | "GOBACK" | "GOLFT" | "GORGT" | "GOUP" | "GODOWN" | "GO") {
+        let key = match normalise(raw, &mut buf) {
+            Ok(key) => key,
+            Err(word) => return word,
+        };
+        if key.contains(&b',') {
+            let last = key.rsplit(|&c| c == b',').next().unwrap_or_default();
+            return if matches!(last, b"GOFWD" | b"GOBACK" | b"GOLFT" | b"GORGT" | b"GOUP" | b"GODOWN" | b"GO") {
                 Word::GoMotion
             } else {
                 Word::Other
             };
         }
         match key {
-            "GOTO" => Word::Goto,
-            "FROM" => Word::From,
-            "GODLTA" => Word::Godlta,
-            "RAPID" => Word::Rapid,
-            "FEDRAT" => Word::Fedrat,
-            "CIRCLE" => Word::Circle,
-            "MOVARC" => Word::Movarc,
-            "NURBS" => Word::Nurbs,
-            "KNOT" => Word::Knot,
-            "CNTRL" => Word::Cntrl,
-            "MULTAX" => Word::Multax,
-            "TLAXIS" => Word::Tlaxis,
-            "INDIRV" => Word::Indirv,
-            "LOADTL" => Word::Loadtl,
-            "LOAD" => Word::Load,
-            "SELECT" => Word::Select,
-            "TLDATA" => Word::Tldata,
-            "CUTTER" => Word::Cutter,
-            "TOOLNO" => Word::Toolno,
-            "TURRET" => Word::Turret,
-            "SPINDL" => Word::Spindl,
-            "COOLNT" => Word::Coolnt,
-            "CUTCOM" => Word::Cutcom,
-            "CYCLE" => Word::Cycle,
-            "DELAY" => Word::Delay,
-            "STOP" => Word::Stop,
-            "OPSTOP" => Word::Opstop,
-            "PPRINT" => Word::Pprint,
-            "INSERT" => Word::Insert,
-            "TPRINT" => Word::Tprint,
-            "PARTNO" => Word::Partno,
-            "REMARK" => Word::Remark,
-            "OPFEATSTART" => Word::OpFeatStart,
-            "OPFEATEND" => Word::OpFeatEnd,
-            "MSYS" => Word::Msys,
-            "CSYS" => Word::Csys,
-            "TRNTYP" => Word::Trntyp,
-            "ROTABL" => Word::Rotabl,
-            "UNITS" | "UNIT" => Word::Units,
-            "TOOL PATH" => Word::ToolPath,
-            "END-OF-PATH" => Word::EndOfPath,
-            "END" => Word::End,
-            "FINI" => Word::Fini,
-            "GO" | "GOFWD" | "GOBACK" | "GOLFT" | "GORGT" | "GOUP" | "GODOWN" => Word::GoMotion,
-            "PSIS" | "DSIS" | "CSIS" => Word::AptSource,
+            b"GOTO" => Word::Goto,
+            b"FROM" => Word::From,
+            b"GODLTA" => Word::Godlta,
+            b"RAPID" => Word::Rapid,
+            b"FEDRAT" => Word::Fedrat,
+            b"CIRCLE" => Word::Circle,
+            b"MOVARC" => Word::Movarc,
+            b"NURBS" => Word::Nurbs,
+            b"KNOT" => Word::Knot,
+            b"CNTRL" => Word::Cntrl,
+            b"MULTAX" => Word::Multax,
+            b"TLAXIS" => Word::Tlaxis,
+            b"INDIRV" => Word::Indirv,
+            b"LOADTL" => Word::Loadtl,
+            b"LOAD" => Word::Load,
+            b"SELECT" => Word::Select,
+            b"TLDATA" => Word::Tldata,
+            b"CUTTER" => Word::Cutter,
+            b"TOOLNO" => Word::Toolno,
+            b"TURRET" => Word::Turret,
+            b"SPINDL" => Word::Spindl,
+            b"COOLNT" => Word::Coolnt,
+            b"CUTCOM" => Word::Cutcom,
+            b"CYCLE" => Word::Cycle,
+            b"DELAY" => Word::Delay,
+            b"STOP" => Word::Stop,
+            b"OPSTOP" => Word::Opstop,
+            b"PPRINT" => Word::Pprint,
+            b"INSERT" => Word::Insert,
+            b"TPRINT" => Word::Tprint,
+            b"PARTNO" => Word::Partno,
+            b"REMARK" => Word::Remark,
+            b"OPFEATSTART" => Word::OpFeatStart,
+            b"OPFEATEND" => Word::OpFeatEnd,
+            b"MSYS" => Word::Msys,
+            b"CSYS" => Word::Csys,
+            b"TRNTYP" => Word::Trntyp,
+            b"ROTABL" => Word::Rotabl,
+            b"UNITS" | b"UNIT" => Word::Units,
+            b"TOOL PATH" => Word::ToolPath,
+            b"END-OF-PATH" => Word::EndOfPath,
+            b"END" => Word::End,
+            b"FINI" => Word::Fini,
+            b"GO" | b"GOFWD" | b"GOBACK" | b"GOLFT" | b"GORGT" | b"GOUP" | b"GODOWN" => Word::GoMotion,
+            b"PSIS" | b"DSIS" | b"CSIS" => Word::AptSource,
             k if PASSIVE.contains(&k) => Word::Passive,
             _ => Word::Other,
         }
@@ -181,27 +181,34 @@ impl Word {
 }
 
 /// Upper-cases a word into `buf`, collapsing runs of blanks and dropping blanks around commas.
-/// `None` when the word is too long or not ASCII (it cannot be a known word then).
-fn normalise<'b>(raw: &str, buf: &'b mut [u8; 32]) -> Option<&'b str> {
+/// Else its class: APT source where it has an `=` (an assignment), `Other` when it is too long
+/// or not ASCII (it cannot be a known word then).
+fn normalise<'b>(raw: &str, buf: &'b mut [u8; 32]) -> Result<&'b [u8], Word> {
     let mut n: usize = 0;
     let mut pending_blank = false;
-    for &c in raw.as_bytes() {
+    let bytes = raw.as_bytes();
+    for (i, &c) in bytes.iter().enumerate() {
         if c == b' ' || c == b'\t' {
             pending_blank = n > 0;
             continue;
         }
+        // Not a known word: an assignment still, wherever its `=`.
+        let unknown = || if bytes[i..].contains(&b'=') { Word::AptSource } else { Word::Other };
+        if c == b'=' {
+            return Err(Word::AptSource);
+        }
         if !c.is_ascii() {
-            return None;
+            return Err(unknown());
         }
         if pending_blank && c != b',' && buf.get(n.wrapping_sub(1)) != Some(&b',') {
-            *buf.get_mut(n)? = b' ';
+            *buf.get_mut(n).ok_or_else(unknown)? = b' ';
             n += 1;
         }
         pending_blank = false;
-        *buf.get_mut(n)? = c.to_ascii_uppercase();
+        *buf.get_mut(n).ok_or_else(unknown)? = c.to_ascii_uppercase();
         n += 1;
     }
-    std::str::from_utf8(&buf[..n]).ok()
+    Ok(&buf[..n])
 }
 
 /// The canonical spelling of a major word for reports: upper case, blanks collapsed.
@@ -234,6 +241,11 @@ mod tests {
         assert_eq!(Word::from_major("PAINT"), Word::Passive);
         assert_eq!(Word::from_major("SPINDLE"), Word::Other);
         assert_eq!(Word::from_major("A_VERY_LONG_VENDOR_WORD_THAT_DOES_NOT_FIT"), Word::Other);
+        // An assignment, wherever its `=`: after a word too long or not ASCII too.
+        assert_eq!(Word::from_major("PL1 = PLANE"), Word::AptSource);
+        assert_eq!(Word::from_major("A_VERY_LONG_VENDOR_WORD_THAT_DOES_NOT_FIT=PLANE"), Word::AptSource);
+        assert_eq!(Word::from_major("ÉBAUCHE=PLANE"), Word::AptSource);
+        assert_eq!(Word::from_major("ÉBAUCHE"), Word::Other);
     }
 
     #[test]
