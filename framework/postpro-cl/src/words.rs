@@ -94,6 +94,10 @@ impl Word {
         if raw.len() == 4 && raw.eq_ignore_ascii_case("GOTO") {
             return Word::Goto;
         }
+        // Most words are written as they are spelt: upper case, no blank, no comma.
+        if raw.bytes().all(|c| c.is_ascii_uppercase() || c == b'_' || c == b'-') {
+            return Word::from_spelling(raw.as_bytes());
+        }
         let mut buf = [0u8; 32];
         let key = match normalise(raw, &mut buf) {
             Ok(key) => key,
@@ -107,6 +111,11 @@ impl Word {
                 Word::Other
             };
         }
+        Word::from_spelling(key)
+    }
+
+    /// Classifies a major word spelt as the vocabulary spells it (upper case, blanks collapsed).
+    fn from_spelling(key: &[u8]) -> Word {
         match key {
             b"GOTO" => Word::Goto,
             b"FROM" => Word::From,
@@ -246,6 +255,20 @@ mod tests {
         assert_eq!(Word::from_major("A_VERY_LONG_VENDOR_WORD_THAT_DOES_NOT_FIT=PLANE"), Word::AptSource);
         assert_eq!(Word::from_major("ÉBAUCHE=PLANE"), Word::AptSource);
         assert_eq!(Word::from_major("ÉBAUCHE"), Word::Other);
+    }
+
+    /// A word spelt as the vocabulary spells it (the fast path) is classified as the same word
+    /// written in lower case with blanks around it.
+    #[test]
+    fn spelt_and_written_otherwise_alike() {
+        let spellings = ["GOTO", "CIRCLE", "END-OF-PATH", "OPFEATSTART", "UNIT", "GOFWD", "PSIS", "SPINDLE", "GOT"];
+        for spelling in spellings.iter().copied().chain(PASSIVE.iter().map(|p| std::str::from_utf8(p).expect("ASCII")))
+        {
+            let written = format!(" {}\t", spelling.to_ascii_lowercase());
+            assert_eq!(Word::from_major(spelling), Word::from_major(&written), "{spelling}");
+        }
+        assert_eq!(Word::from_major("CIRCLE"), Word::Circle);
+        assert_eq!(Word::from_major("CSI_SET_EXTENSION_LENGTH"), Word::Passive);
     }
 
     #[test]
