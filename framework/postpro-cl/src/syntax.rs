@@ -144,8 +144,13 @@ fn number(i: &str) -> PResult<'_, f64> {
 /// The number that starts at `b[k]`, if one does, and where it ends; what follows it is not
 /// looked at (the caller checks for a delimiter).
 fn number_at(b: &[u8], k: usize) -> Option<(f64, usize)> {
-    if let Some(short) = short_decimal(b, k) {
-        return Some(short);
+    short_decimal(b, k).or_else(|| number_not_short(b, k))
+}
+
+/// [`number_at`] where [`short_decimal`] did not decide.
+fn number_not_short(b: &[u8], k: usize) -> Option<(f64, usize)> {
+    if let Some(long) = long_decimal(b, k) {
+        return Some(long);
     }
     let s = b.get(k..)?;
     let digits_at = usize::from(matches!(s.first(), Some(b'+' | b'-')));
@@ -323,6 +328,36 @@ fn short_decimal(b: &[u8], k: usize) -> Option<(f64, usize)> {
     // Below 10¹⁴: the signed conversion is exact and one instruction.
     let magnitude = mantissa as i64 as f64 / POW10[decimals];
     Some((if first == b'-' { -magnitude } else { magnitude }, end))
+}
+
+/// A number [`short_decimal`] leaves for its fraction's length, `[+-]ddd.ddddddddd[ddddddd]` with
+/// at most seven digits before the point, eight to fifteen after (Creo writes ten) and fifteen
+/// in all, read with three 8-byte loads: its value and end, as [`plain_decimal`] gives them (below
+/// 10¹⁵ < 2⁵³: the exact fast path). `None` when it is not that.
+fn long_decimal(b: &[u8], k: usize) -> Option<(f64, usize)> {
+    let first = *b.get(k)?;
+    let start = k + usize::from(first == b'-' || first == b'+');
+    let chunk = load8(b, start)?;
+    let whole = leading_digits(chunk);
+    if whole == 8 || (chunk >> (8 * whole)) as u8 != b'.' {
+        return None;
+    }
+    let fraction = load8(b, start + whole + 1)?;
+    let more = load8(b, start + whole + 9)?;
+    let extra = leading_digits(more);
+    let decimals = 8 + extra;
+    if leading_digits(fraction) < 8 || whole + decimals > 15 {
+        return None;
+    }
+    if matches!((more >> (8 * extra)) as u8, b'e' | b'E' | b'd' | b'D') {
+        return None;
+    }
+    let digits = |chunk: u64, n: usize| if n == 0 { 0 } else { first_digits(chunk, n) };
+    let mantissa =
+        (digits(chunk, whole) * POW10_U64[8] + first_digits(fraction, 8)) * POW10_U64[extra] + digits(more, extra);
+    // Below 10¹⁵: the signed conversion is exact and one instruction.
+    let magnitude = mantissa as i64 as f64 / POW10[decimals];
+    Some((if first == b'-' { -magnitude } else { magnitude }, start + whole + 1 + decimals))
 }
 
 /// The value of eight digits given as byte values 0–9, the first digit in the lowest byte.
@@ -531,7 +566,7 @@ pub(crate) fn goto_args(b: &[u8], from: usize, line: bool, buf: &mut Args<'_>) -
 /// `buf` may then hold a part of the arguments.
 fn numbers(b: &[u8], mut k: usize, from: usize, line: bool, buf: &mut Args<'_>) -> Option<usize> {
     loop {
-        let (value, end) = short_decimal(b, k).or_else(|| number_at(b, k))?;
+        let (value, end) = short_decimal(b, k).or_else(|| number_not_short(b, k))?;
         buf.push(Arg { value: Value::Num(value), start: (k - from) as u32, end: (end - from) as u32 });
         // Mostly a comma right after the number, and the next number right after it.
         if b.get(end) == Some(&b',') && !matches!(b.get(end + 1), Some(b' ' | b'\t')) {
@@ -738,6 +773,12 @@ mod tests {
         assert_eq!(short_decimal(b"0.1736482", 0), None, "fewer than eight bytes after the point");
         assert_eq!(short_decimal(b"-.,0000000000", 0), None);
         assert_eq!(short_decimal(b"1.5E-3,00000000", 0), None);
+        // Creo's ten decimals: past the short path, read by the long one.
+        let creo = b"GOTO / -16.1677728056, -23.6363664797, 2.0000000000\n";
+        assert_eq!(short_decimal(creo, 7), None);
+        assert_eq!(long_decimal(creo, 7), Some((-16.1677728056, 21)));
+        assert_eq!(long_decimal(b"0.000000000000000,0000000", 0), None, "sixteen digits");
+        assert_eq!(long_decimal(b"-1.7365,0.1736482,0000000", 0), None, "a short number");
     }
 
     #[test]
@@ -777,17 +818,18 @@ mod tests {
             proptest::prop_assert_eq!(fast, slow);
         }
 
-        /// The short-number path reads what the plain-decimal path reads, wherever it decides.
+        /// The short- and long-number paths read what the plain-decimal path reads, wherever
+        /// they decide.
         #[test]
         fn short_decimals_read_as_plain_decimals(
             lead in "[0-9,]{0,3}",
-            text in "[+-]?[0-9]{0,9}(\\.[0-9]{0,9})?[eEdD,\n x]?",
-            tail in "[0-9,\n]{0,10}",
+            text in "[+-]?[0-9]{0,9}(\\.[0-9]{0,17})?[eEdD,\n x]?",
+            tail in "[0-9,\n]{0,18}",
         ) {
             let all = format!("{lead}{text}{tail}");
             let b = all.as_bytes();
             let k = lead.len();
-            if let Some((value, end)) = short_decimal(b, k) {
+            for (value, end) in [short_decimal(b, k), long_decimal(b, k)].into_iter().flatten() {
                 let s = &b[k..];
                 let digits_at = usize::from(matches!(s.first(), Some(b'+' | b'-')));
                 proptest::prop_assert!(
