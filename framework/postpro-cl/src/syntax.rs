@@ -330,7 +330,7 @@ fn short_decimal(b: &[u8], k: usize) -> Option<(f64, usize)> {
     Some((if first == b'-' { -magnitude } else { magnitude }, end))
 }
 
-/// A number [`short_decimal`] leaves for its fraction's length, `[+-]ddd.ddddddddd[ddddddd]` with
+/// A number [`short_decimal`] leaves for its fraction's length, `[+-]ddd.dddddddd[ddddddd]` with
 /// at most seven digits before the point, eight to fifteen after (Creo writes ten) and fifteen
 /// in all, read with three 8-byte loads: its value and end, as [`plain_decimal`] gives them (below
 /// 10¹⁵ < 2⁵³: the exact fast path). `None` when it is not that.
