@@ -566,6 +566,8 @@ pub(crate) fn goto_args(b: &[u8], from: usize, line: bool, buf: &mut Args<'_>) -
 /// `buf` may then hold a part of the arguments.
 fn numbers(b: &[u8], mut k: usize, from: usize, line: bool, buf: &mut Args<'_>) -> Option<usize> {
     loop {
+        // The short path inlined in this loop: through `number_at` every file reads 6 to 12 %
+        // slower (callgrind, `check`).
         let (value, end) = short_decimal(b, k).or_else(|| number_not_short(b, k))?;
         buf.push(Arg { value: Value::Num(value), start: (k - from) as u32, end: (end - from) as u32 });
         // Mostly a comma right after the number, and the next number right after it.

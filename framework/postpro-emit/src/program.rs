@@ -787,6 +787,18 @@ impl LastWord {
     fn text(text: &str) -> LastWord {
         LastWord { text: text.into(), rounded: None }
     }
+
+    /// `value` as the word of a slot whose last word is `last`, unless it would be written as
+    /// that was (known by its rounding, else by its text, looked at on the stack) and not `all`.
+    fn replacing(last: Option<&LastWord>, value: f64, decimals: usize, plus: bool, all: bool) -> Option<LastWord> {
+        let rounded = Rounded::of(value, decimals, plus);
+        if !all && rounded.is_some() && last.is_some_and(|w| w.rounded == rounded) {
+            return None;
+        }
+        with_rounded(value, decimals, rounded, |text| {
+            (all || last.map(|w| w.text.as_str()) != Some(text)).then(|| LastWord { text: text.into(), rounded })
+        })
+    }
 }
 
 /// The dialect's words for the motion program's blocks, with the modal state of what was
@@ -973,28 +985,12 @@ impl<'a> Formatter<'a> {
         let mut words = Vec::with_capacity(self.machine.axes.len());
         for i in (0..self.machine.axes.len()).filter(|&i| axes.contains(i)) {
             let value = self.axis_value(i, joints[i]);
-            let decimals = self.decimals(i);
-            let rounded = Rounded::of(value, decimals, self.dialect.explicit_plus);
-            // Rounded as the last word: the same text, not written again (the rotary axes of a
-            // 3+2 program never change).
-            if !all && rounded.is_some() && self.written[i].as_ref().is_some_and(|w| w.rounded == rounded) {
-                continue;
-            }
-            // Else the text is looked at on the stack: a word is made only where it changed.
-            let changed = with_rounded(value, decimals, rounded, |text| {
-                (all || self.written_text(i) != Some(text)).then(|| CompactString::from(text))
-            });
-            match changed {
-                Some(text) => {
-                    self.written[i] = Some(LastWord { text: text.clone(), rounded });
-                    words.push(Word { letter: self.machine.axes[i].letter.as_str().into(), value, text });
-                }
-                // The same text (the last word's rounding not known): known from now on.
-                None => {
-                    if let Some(last) = &mut self.written[i] {
-                        last.rounded = rounded;
-                    }
-                }
+            // A word only where it changed (the rotary axes of a 3+2 program never do).
+            let plus = self.dialect.explicit_plus;
+            if let Some(word) = LastWord::replacing(self.written[i].as_ref(), value, self.decimals(i), plus, all) {
+                let letter = self.machine.axes[i].letter.as_str().into();
+                words.push(Word { letter, value, text: word.text.clone() });
+                self.written[i] = Some(word);
             }
         }
         words
@@ -1091,19 +1087,12 @@ impl<'a> Formatter<'a> {
             FeedWord::PerRevolution(f) => ("per-revolution", f / self.unit, self.dialect.feed_decimals.max(4)),
         };
         self.set_feed_mode(mode);
-        // The F word of most blocks is the last one's: known by its rounding, else by its text,
-        // looked at on the stack.
-        let rounded = Rounded::of(value, decimals, false);
-        let last = self.last_feed.as_ref();
-        if !always && rounded.is_some() && last.is_some_and(|w| w.rounded == rounded) {
-            return (None, None);
-        }
-        let Some(text) = with_rounded(value, decimals, rounded, |text| {
-            (always || last.map(|w| w.text.as_str()) != Some(text)).then(|| text.to_string())
-        }) else {
+        // The F word of most blocks is the last one's.
+        let Some(word) = LastWord::replacing(self.last_feed.as_ref(), value, decimals, false, always) else {
             return (None, None);
         };
-        self.last_feed = Some(LastWord { text: text.as_str().into(), rounded });
+        let text = word.text.to_string();
+        self.last_feed = Some(word);
         (Some(text), note.map(|t| clean_comment(self.dialect, t)))
     }
 
