@@ -417,8 +417,9 @@ pub struct Stepper {
     split: Vec<(f64, u32)>,
 }
 
-/// A step that would cross a junction above its cap (by more than [`SPLIT_OVER`]), or that
-/// misses a cap ahead only because its deceleration reaches its cap within the period, is taken
+/// A step that would cross a junction above its cap (by more than [`SPLIT_OVER`]), that carries
+/// a deceleration across one the next piece cannot end ([`Stepper::carries_deceleration`]), or
+/// that misses a cap ahead only because its deceleration reaches its cap within the period, is taken
 /// again in this many sub-steps, and so on down [`SPLIT_LEVELS`] levels: a braking shorter than
 /// a period, or of a few periods whose deceleration builds in less than one (the slow blocks of
 /// inverse time, where the parameter's limits scale with 1/F and 1/F²), is then followed within
@@ -619,9 +620,12 @@ impl Stepper {
                 };
                 choice = crossing;
             }
-            let Choice { j, limit, ahead, next: (u1, v1, a1), clear, shorter_steps_meet, .. } = choice;
+            let Choice { j, limit, ahead, next: (u1, v1, a1), clear, shorter_steps_meet, lowest, .. } = choice;
             let crossing = self.ends.get(self.k).is_some_and(|&end| u1 >= end);
-            if (shorter_steps_meet || (crossing && self.crosses_above_cap(j, (u1, v1, a1))))
+            if (shorter_steps_meet
+                || (crossing
+                    && (self.crosses_above_cap(j, (u1, v1, a1))
+                        || self.carries_deceleration(track, (u1, v1, a1), lowest))))
                 && self.split.len() < SPLIT_LEVELS
             {
                 // Taken again in sub-steps ([`SPLIT`]).
@@ -789,6 +793,25 @@ impl Stepper {
                 self.sub_step_taken(sample, observer);
             }
         }
+    }
+
+    /// True when the step to `(u1, v1, a1)` crosses into a piece whose jerk cannot end the
+    /// deceleration `a1` before the speed falls under `lowest`, the lowest cap the scan ahead saw,
+    /// by more than [`SPLIT_OVER`]: a braking that ends within the period, carried across the
+    /// junction by a step of constant jerk into a piece a rotary axis's jerk limits, where the
+    /// speed fell to nearly 0 as the CNC's does not (`hypar-5axis` on the MAHO in g1: 2 mm/min,
+    /// 177 stepped at 0.5 ms; test `the_prediction_at_the_machines_period_is_near_the_converged_one`
+    /// in `postpro`'s `tests/predict.rs`).
+    fn carries_deceleration(&self, track: &Track, (u1, v1, a1): (f64, f64, f64), lowest: f64) -> bool {
+        if a1 >= 0.0 || v1 <= 0.0 {
+            return false;
+        }
+        let mut m = self.k;
+        while m + 1 < self.ends.end() && u1 >= self.ends[m] {
+            m += 1;
+        }
+        let end = v1 - a1 * a1 / (2.0 * track.pieces[m].jerk);
+        m != self.k && end < (1.0 - SPLIT_OVER) * lowest.min(v1)
     }
 
     /// True when the step to `(u1, v1, a1)` at jerk `j` crosses a junction (not a stop) above its
@@ -1015,6 +1038,7 @@ impl Stepper {
                 next,
                 clear: true,
                 shorter_steps_meet: false,
+                lowest: f64::INFINITY,
             });
         }
         // With `crossing`, the caps of every piece this step may enter: the jerk and acceleration
@@ -1049,6 +1073,7 @@ impl Stepper {
         let last = self.window_end(track)?;
         let p = &p;
         let mut j = p.jerk;
+        let mut lowest = f64::INFINITY;
         let mut limit = p.jerk_limit;
         let mut ahead = false;
         // Acceleration cap.
@@ -1077,6 +1102,7 @@ impl Stepper {
                 next,
                 clear: false,
                 shorter_steps_meet: false,
+                lowest: 0.0,
             });
         }
         // Junctions ahead, within the window and within braking reach: decided on a copy of the
@@ -1151,6 +1177,7 @@ impl Stepper {
                             && surely_reached(run.first_at - u1, v1, a1, run.cap, a_run, j_run, p.jerk));
                     if passed {
                         could_bind |= run.cap < peak_run;
+                        lowest = lowest.min(run.cap);
                         if tightens {
                             // The gate the scan of each junction would have come to: into the
                             // run's last piece that tightens the path's limits.
@@ -1201,6 +1228,7 @@ impl Stepper {
             } else {
                 (junction.cap, junction.why)
             };
+            lowest = lowest.min(junction.cap);
             // The motion stops at a junction capped at 0: nothing after it matters.
             let stop = cap <= 0.0;
             // A cap the speed cannot reach is no constraint.
@@ -1334,7 +1362,16 @@ impl Stepper {
         } else {
             None
         };
-        Some(Choice { j, limit, ahead, tighter_ahead, next: (u1, v1, a1), clear: !could_bind, shorter_steps_meet })
+        Some(Choice {
+            j,
+            limit,
+            ahead,
+            tighter_ahead,
+            next: (u1, v1, a1),
+            clear: !could_bind,
+            shorter_steps_meet,
+            lowest,
+        })
     }
 }
 
@@ -1363,6 +1400,9 @@ struct Choice {
     /// True when a cap ahead is met by the braking from the state now but by no step of
     /// constant jerk over the period: steps shorter than it would ([`SPLIT`]).
     shorter_steps_meet: bool,
+    /// The lowest cap of the junctions the scan looked at, the window's end at its own cap (the
+    /// window moves on with the motion); 0 for the strongest braking taken without a scan.
+    lowest: f64,
 }
 
 /// Far more steps on one piece than any motion takes (a cruise taken in one go counts once):
