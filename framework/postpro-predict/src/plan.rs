@@ -21,8 +21,9 @@
 //! [`SPLIT_OVER`], or above the next piece's own) takes the jerk that meets the cap at the
 //! crossing rather than the strongest braking. Past rotary linking moves it can still cross a
 //! junction above its cap, and the periods lost add up on programs of many corners
-//! (docs/validation.md, known limits; the ignored test below). A step takes the caps of the piece it is on, and those of
-//! every piece it may enter only where it crosses into them ([`Stepper::steps`]).
+//! (docs/validation.md, known limits; the ignored test below). A step takes the caps of the
+//! piece it is on, and those of every piece it may enter only where it crosses into them
+//! ([`Stepper::steps`]).
 //!
 //! The track may be streamed: pieces are added as the program is read, and the stepper goes as
 //! far as what it holds lets it decide exactly as it would on the whole track (every junction
@@ -419,12 +420,12 @@ pub struct Stepper {
 
 /// A step that would cross a junction above its cap (by more than [`SPLIT_OVER`]), that carries
 /// a deceleration across one the next piece cannot end ([`Stepper::carries_deceleration`]), or
-/// that misses a cap ahead only because its deceleration reaches its cap within the period, is taken
-/// again in this many sub-steps, and so on down [`SPLIT_LEVELS`] levels: a braking shorter than
-/// a period, or of a few periods whose deceleration builds in less than one (the slow blocks of
-/// inverse time, where the parameter's limits scale with 1/F and 1/F²), is then followed within
-/// it, as a CNC planning in continuous time and sampling at its period does. Only the period's
-/// last sample is reported.
+/// that misses a cap ahead only because its deceleration reaches its cap within the period, is
+/// taken again in this many sub-steps, and so on down [`SPLIT_LEVELS`] levels: a braking shorter
+/// than a period, or of a few periods whose deceleration builds in less than one (the slow blocks
+/// of inverse time, where the parameter's limits scale with 1/F and 1/F²), is then followed
+/// within it, as a CNC planning in continuous time and sampling at its period does. Only the
+/// period's last sample is reported.
 const SPLIT: u32 = 8;
 /// See [`SPLIT`]: down to a 4 096th of the period (at most 4 096 sub-steps in a period; a
 /// braking needs a level or two).
@@ -2359,9 +2360,10 @@ mod tests {
     /// strongest braking, a dip of J·h²/2 and more (`nurbs.clsf` on the MAHO, 8 ms, in B-spline
     /// mode: 2 933.65 s, +3.6 % on the same stepped at 0.5 ms, 2 830.67 s). So did a corner
     /// whose cap is a hair under the speed (Creo's `schruppen_1` on the MAHO: +2.65 %). It now
-    /// takes the jerk that meets the cap at the crossing (`nurbs.clsf` 2 830.88 s; Creo +0.5 %). Here, on pieces'
-    /// own caps, the speed dipped 19 % and the time was 3.3 % over the finer stepping's; now the
-    /// speed stays within a millionth of the caps and the time within a period. Past corners
+    /// takes the jerk that meets the cap at the crossing (with this alone, `nurbs.clsf` 2 830.88 s
+    /// and Creo +0.5 %). Here, on pieces' own caps, the speed dipped 19 % and the time was 3.3 %
+    /// over the finer stepping's; now the speed stays within a millionth of the caps and the time
+    /// within a period. Past corners
     /// up to 0.5 % under the speed it dipped 24 % and took 6.2 % longer; now the step that
     /// crosses a corner goes on braking past it (constant jerk over the period) and dips up to
     /// 4.4 %, 0.4 % longer than the finer stepping.
