@@ -1273,7 +1273,12 @@ impl Stepper {
             let late = next.map_or(0.0, |next| period * (next.jerk / j_path).min(1.0));
             let slack_of = |(u1, v1, a1): (f64, f64, f64)| {
                 let room = at - u1;
-                let reach = reach_distance_cut(v1, a1, cap, (a_path, j_path, p.jerk), late, cut_at - u1);
+                // Mostly no deceleration above the path's cap, nothing to cut.
+                let reach = if -a1 <= a_path {
+                    reach_distance(v1, a1, cap, a_path, j_path, p.jerk, late)
+                } else {
+                    reach_distance_cut(v1, a1, cap, (a_path, j_path, p.jerk), late, cut_at - u1)
+                };
                 room - reach + 1e-9 * (1.0 + room.abs())
             };
             let slack = |jj: f64| slack_of(advance(u, v, a, jj, h));
@@ -1592,7 +1597,13 @@ impl Gate {
     /// crossing of the gate, with a period's travel to spare for the steps' rounding (`h`).
     fn dominates(&self, at: f64, cap: f64, h: f64) -> bool {
         let (amax, jmax) = (self.acceleration, self.jerk);
-        let from = |a: f64| reach_distance_cut(self.cap, a, cap, (amax, jmax, jmax), 0.0, 0.0);
+        let from = |a: f64| {
+            if -a <= amax {
+                reach_distance(self.cap, a, cap, amax, jmax, jmax, 0.0)
+            } else {
+                reach_distance_cut(self.cap, a, cap, (amax, jmax, jmax), 0.0, 0.0)
+            }
+        };
         let room = at - self.at;
         let room = room - self.cap * h - 1e-9 * (1.0 + room.abs());
         room >= from(self.entry) && room >= from(-self.entry)
@@ -1745,7 +1756,6 @@ fn velocity_cap_jerk(v: f64, a: f64, vmax: f64, jmax: f64, h: f64) -> f64 {
 /// reached a corner of `manta-5axis` (MAHO, B-spline) at 43 times its cap, past pieces that
 /// allow a fifth of the acceleration of those before. `None` where the easing ends before the
 /// cut, or the speed reaches 0 before it.
-#[inline(never)]
 fn cut_short(v: f64, a: f64, amax: f64, jr: f64, cut: f64) -> Option<(f64, f64)> {
     let d = -a;
     // At rest or going back (a step's rounding), nothing to cut.
@@ -1770,13 +1780,11 @@ fn cut_short(v: f64, a: f64, amax: f64, jr: f64, cut: f64) -> Option<(f64, f64)>
 }
 
 /// [`reach_distance`] with the limits `(amax, jmax, jnow)`, where a deceleration above `amax` is
-/// cut to it `cut` ahead at the latest ([`cut_short`]).
-#[inline(always)]
+/// cut to it `cut` ahead at the latest ([`cut_short`]). Rare: the callers test `−a > amax` first
+/// and call [`reach_distance`] otherwise (1–2 % of the whole job's instructions, inlined).
+#[cold]
+#[inline(never)]
 fn reach_distance_cut(v: f64, a: f64, w: f64, (amax, jmax, jnow): (f64, f64, f64), late: f64, cut: f64) -> f64 {
-    if -a <= amax {
-        // Mostly: nothing to cut.
-        return reach_distance(v, a, w, amax, jmax, jnow, late);
-    }
     match cut_short(v, a, amax, jmax.min(jnow), cut) {
         Some((to_cut, v_cut)) => to_cut + reach_distance(v_cut, -amax, w, amax, jmax, jnow, late),
         None => reach_distance(v, a, w, amax, jmax, jnow, late),
