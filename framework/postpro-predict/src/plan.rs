@@ -20,10 +20,11 @@
 //! sample reported ([`SPLIT`]); one that would cross a junction a hair above its cap (within
 //! [`SPLIT_OVER`], or above the next piece's own) takes the jerk that meets the cap at the
 //! crossing rather than the strongest braking. A deceleration above the limits of pieces ahead
-//! is planned cut to theirs where they start, as the steps cut it there ([`cut_short`]). On
-//! 5-axis finishing some corners are still crossed above their caps, by up to 9 %
-//! (docs/validation.md, known limits). A step takes the caps of the piece it is on, and those of
-//! every piece it may enter only where it crosses into them ([`Stepper::steps`]).
+//! is planned cut to theirs where they start, as the steps cut it there ([`cut_short`]), and the
+//! window's end is met both as a stop and as its own cap. Some corners of B-spline output are
+//! still crossed above their caps, by up to 6 % (docs/validation.md, known limits). A step takes
+//! the caps of the piece it is on, and those of every piece it may enter only where it crosses
+//! into them ([`Stepper::steps`]).
 //!
 //! The track may be streamed: pieces are added as the program is read, and the stepper goes as
 //! far as what it holds lets it decide exactly as it would on the whole track (every junction
@@ -1242,12 +1243,13 @@ impl Stepper {
                     break;
                 }
             }
-            // The window's end, unless the program stops there anyway.
-            let (cap, why) = if Some(m) == last && m + 1 < track.len() && junction.cap > 0.0 {
-                (0.0, Limit::LookAhead)
-            } else {
-                (junction.cap, junction.why)
-            };
+            // The window's end, unless the program stops there anyway; its own cap is met too
+            // (`window_cap`): a braking to a cap near a third of the speed, its deceleration
+            // ended there, takes up to 9 % more room than a stop ([`scan_reach`]), so a motion
+            // that can stop at the window's end may not meet that cap once the window moves on.
+            let window_end = Some(m) == last && m + 1 < track.len() && junction.cap > 0.0;
+            let (cap, why) = if window_end { (0.0, Limit::LookAhead) } else { (junction.cap, junction.why) };
+            let window_cap = window_end.then_some(junction.cap);
             lowest = lowest.min(junction.cap);
             // The motion stops at a junction capped at 0: nothing after it matters.
             let stop = cap <= 0.0;
@@ -1274,10 +1276,16 @@ impl Stepper {
             let slack_of = |(u1, v1, a1): (f64, f64, f64)| {
                 let room = at - u1;
                 // Mostly no deceleration above the path's cap, nothing to cut.
-                let reach = if -a1 <= a_path {
-                    reach_distance(v1, a1, cap, a_path, j_path, p.jerk, late)
-                } else {
-                    reach_distance_cut(v1, a1, cap, (a_path, j_path, p.jerk), late, cut_at - u1)
+                let reach_to = |w: f64| {
+                    if -a1 <= a_path {
+                        reach_distance(v1, a1, w, a_path, j_path, p.jerk, late)
+                    } else {
+                        reach_distance_cut(v1, a1, w, (a_path, j_path, p.jerk), late, cut_at - u1)
+                    }
+                };
+                let reach = match window_cap {
+                    Some(w) => reach_to(cap).max(reach_to(w)),
+                    None => reach_to(cap),
                 };
                 room - reach + 1e-9 * (1.0 + room.abs())
             };
@@ -2393,6 +2401,29 @@ mod tests {
         for &(junction, _, v, _) in &motion.1 {
             let (cap, _) = track.junction_cap(junction);
             assert!(v <= cap * (1.0 + 1e-2), "junction {junction} crossed at {v} for a cap of {cap}");
+        }
+    }
+
+    /// `finition2.ncl` on the Mikron in inverse time, the corner of block 31 901: pieces of
+    /// 0.0084 (programmed seconds) at 0.30 of the feed, a look-ahead of ten blocks, and a corner
+    /// capped at 0.092, near a third of the speed, where braking with the deceleration ended takes
+    /// up to 9 % more room than stopping. Met as the window's end by a stop alone, the corner was
+    /// crossed at 1.094 times its cap once the window moved past it; now the window's end meets
+    /// its own cap too.
+    #[test]
+    fn the_window_s_end_meets_its_own_cap_as_well_as_a_stop() {
+        let n = 40;
+        let pieces = vec![piece(0.0084, 0.30, 1.81, 3.02); n];
+        let mut caps = vec![f64::INFINITY; n];
+        caps[20] = 0.0924;
+        caps[n - 1] = 0.0;
+        let junctions = caps.iter().map(|&cap| Junction { cap, limit: Limit::Corner, dwell: 0.0 }).collect();
+        let track = Track::new(pieces, junctions, 10, 0.0);
+        let mut motion = Everything::default();
+        run(&track, 0.003, &mut motion);
+        for &(junction, _, v, _) in &motion.1 {
+            let (cap, _) = track.junction_cap(junction);
+            assert!(v <= cap * (1.0 + 1e-3), "junction {junction} crossed at {v} for a cap of {cap}");
         }
     }
 
