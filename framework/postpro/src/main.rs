@@ -16,6 +16,7 @@ mod plot;
 mod predict;
 mod progress;
 mod report;
+mod scratch;
 mod setup;
 mod solve;
 mod stream;

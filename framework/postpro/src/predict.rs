@@ -10,13 +10,16 @@ use std::process::ExitCode;
 
 use postpro_emit::{Annotation, Mode};
 use postpro_machine::model::{AxisKind, Machine};
-use postpro_predict::{BlockKind, Cause, Limit, Mark, MarkRules, Planner, Prediction, Timing, Totals, describe};
+use postpro_predict::{
+    BlockKind, BlockResult, Cause, Limit, Mark, MarkRules, Planner, Prediction, Timing, Totals, describe,
+};
 
 use crate::emit::ModeArg;
 use crate::html;
 use crate::job::{Job, fail, prepare};
 use crate::plot;
 use crate::report;
+use crate::scratch::Scratch;
 use crate::solve::{IktArgs, MachineArgs};
 
 /// The prediction options, shared by `predict` and the main job.
@@ -312,9 +315,9 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         expand_cycles: args.cycles == crate::emit::CyclesArg::Expand,
         planes: args.plane_mode == crate::emit::PlaneModeArg::Cycle,
     };
-    // The figures alone stream; every block's results or samples are held for the exports.
-    let whole = args.blocks
-        || args.csv.is_some()
+    // The figures and the block rows stream; every block's results or samples are held for the
+    // exports.
+    let whole = args.csv.is_some()
         || args.json.is_some()
         || args.plot.is_some()
         || args.report.is_some()
@@ -396,7 +399,7 @@ fn streamed(
     shapes: crate::job::Shapes,
 ) -> ExitCode {
     let request = crate::stream::Request {
-        purpose: crate::stream::Purpose::Prediction,
+        purpose: crate::stream::Purpose::Prediction { every_block: args.blocks },
         file: &args.file,
         chosen,
         ikt: &args.ikt,
@@ -426,7 +429,10 @@ fn streamed(
         args,
         every_block: None,
     };
-    report::print_stdout(&table(&figures))
+    match s.rows {
+        Some(rows) => rows.print_after(&table(&figures)),
+        None => report::print_stdout(&table(&figures)),
+    }
 }
 
 /// Says on standard error that the interpolator gave up on pieces of the path, if it did: a
@@ -527,7 +533,13 @@ fn write_all(files: &[(PathBuf, String)]) -> Result<(), String> {
     Ok(())
 }
 
-/// The CL line of a block (1-based).
+/// The CL line (1-based) of a block: of the CL item it comes from (a program's last retract, of
+/// its end), as the marks and the streamed `--blocks` say it.
+fn block_line(job: &Job, b: &BlockResult) -> usize {
+    job.source.line_col(b.span.start as usize).line
+}
+
+/// The CL line (1-based) of a step.
 fn line(job: &Job, step: usize) -> usize {
     job.source.line_col(job.solved.steps[step].span.start as usize).line
 }
@@ -604,26 +616,12 @@ fn table(figures: &Figures<'_>) -> String {
     for (note, line) in prediction.notes.iter().zip(figures.note_lines) {
         let _ = writeln!(out, "note: line {line}: {}", note.text);
     }
-    if let (true, Some(job)) = (args.blocks, figures.every_block) {
-        let _ = writeln!(
-            out,
-            "\n  block    line  kind            length mm  F mm/min    min mm/min  mean mm/min   time s   lost s  limit"
-        );
-        for (i, b) in prediction.blocks.iter().enumerate() {
-            let _ = writeln!(
-                out,
-                "{:>7} {:>7}  {:<14} {:>10.3} {:>9.0} {:>12.0} {:>12.0} {:>8.4} {:>8.4}  {}",
-                i + 1,
-                line(job, b.step),
-                kind_name(b.kind),
-                b.length,
-                b.programmed,
-                b.min_feed,
-                b.mean_feed,
-                b.time,
-                b.lost,
-                describe(b.limit, machine)
-            );
+    if args.blocks {
+        out.push_str(BLOCKS_HEADER);
+        if let Some(job) = figures.every_block {
+            for (i, b) in prediction.blocks.iter().enumerate() {
+                block_row(&mut out, i, block_line(job, b), b, machine);
+            }
         }
     } else if !marks.is_empty() {
         let rules = args.marks.rules(&args.prediction);
@@ -655,6 +653,78 @@ fn table(figures: &Figures<'_>) -> String {
         }
     }
     out
+}
+
+/// The head of `--blocks`'s rows, after the table.
+const BLOCKS_HEADER: &str =
+    "\n  block    line  kind            length mm  F mm/min    min mm/min  mean mm/min   time s   lost s  limit\n";
+
+/// The row of `--blocks` of block `i` (from 0), on CL line `line`.
+fn block_row(out: &mut String, i: usize, line: usize, b: &BlockResult, machine: &Machine) {
+    let _ = writeln!(
+        out,
+        "{:>7} {:>7}  {:<14} {:>10.3} {:>9.0} {:>12.0} {:>12.0} {:>8.4} {:>8.4}  {}",
+        i + 1,
+        line,
+        kind_name(b.kind),
+        b.length,
+        b.programmed,
+        b.min_feed,
+        b.mean_feed,
+        b.time,
+        b.lost,
+        describe(b.limit, machine)
+    );
+}
+
+/// `--blocks` streamed: each block's row as the prediction makes it final, in a scratch file
+/// until the prediction is whole (a million blocks are a hundred megabytes of rows), its CL line
+/// read on in `file` as the blocks come. The first error is kept and said at the end.
+pub(crate) struct BlockRows<'a> {
+    file: &'a postpro_cl::ClFile,
+    scratch: Option<Scratch>,
+    lines: Option<postpro_cl::Lines>,
+    /// The rows written.
+    count: usize,
+    failed: Option<String>,
+}
+
+impl<'a> BlockRows<'a> {
+    /// The rows of the blocks of `file`'s program.
+    pub(crate) fn new(file: &'a postpro_cl::ClFile) -> BlockRows<'a> {
+        let (scratch, failed) = match Scratch::new("predict.blocks") {
+            Ok(scratch) => (Some(scratch), None),
+            Err(e) => (None, Some(format!("error: cannot make a scratch file for the block rows: {e}\n"))),
+        };
+        BlockRows { file, scratch, lines: None, count: 0, failed }
+    }
+
+    /// The row of the next block, final.
+    pub(crate) fn push(&mut self, b: &BlockResult, machine: &Machine) {
+        let Some(scratch) = self.scratch.as_mut().filter(|_| self.failed.is_none()) else { return };
+        let file = self.file;
+        let lines = match &mut self.lines {
+            Some(lines) => Ok(lines),
+            None => file.lines().map(|lines| self.lines.insert(lines)).map_err(|e| e.to_string()),
+        };
+        let line = lines.and_then(|lines| lines.line_col(b.span.start as usize).map_err(|e| e.to_string()));
+        let written = line.and_then(|at| {
+            block_row(&mut scratch.text, self.count, at.line, b, machine);
+            self.count += 1;
+            if scratch.text.len() < 1 << 16 { Ok(()) } else { scratch.flush_text().map_err(|e| e.to_string()) }
+        });
+        if let Err(e) = written {
+            self.failed = Some(format!("error: cannot write the block rows ({}): {e}\n", file.name()));
+        }
+    }
+
+    /// The rows, or the first error.
+    pub(crate) fn finish(self) -> Result<Scratch, String> {
+        match (self.failed, self.scratch) {
+            (None, Some(scratch)) => Ok(scratch),
+            (failed, _) => Err(failed.unwrap_or_default()),
+        }
+    }
 }
 
 fn limit_names(prediction: &Prediction) -> Vec<Limit> {
@@ -720,7 +790,7 @@ fn blocks_csv(prediction: &Prediction, machine: &Machine, job: &Job) -> String {
             out,
             "{},{},{},{:.4},{:.1},{:.2},{:.2},{:.6},{},{:.6},{:.6},{},{}",
             i + 1,
-            line(job, b.step),
+            block_line(job, b),
             kind_name(b.kind),
             b.length,
             b.programmed,
@@ -759,7 +829,7 @@ fn json(run: &Run<'_>) -> String {
         .enumerate()
         .map(|(i, b)| {
             json!({
-                "block": i + 1, "line": line(job, b.step), "kind": kind_name(b.kind), "length_mm": b.length,
+                "block": i + 1, "line": block_line(job, b), "kind": kind_name(b.kind), "length_mm": b.length,
                 "programmed_mm_min": b.programmed, "min_feed_mm_min": b.min_feed, "mean_feed_mm_min": b.mean_feed,
                 "time_s": b.time, "limit": describe(b.limit, machine), "time_lost_s": b.lost,
                 "stop_lost_s": b.stop_lost, "cause": describe(b.cause, machine),

@@ -20,6 +20,7 @@ use postpro_plugins::{Plugins, Solver};
 
 use crate::job::fail;
 use crate::report;
+use crate::scratch::Scratch;
 
 /// Arguments of `postpro solve`.
 #[derive(Debug, clap::Args)]
@@ -266,7 +267,7 @@ pub(crate) fn run(args: &SolveArgs) -> ExitCode {
         return fail(&format!("error: cannot {what}: {e}\n"), 1);
     }
     match rows {
-        Some(rows) => rows.print(),
+        Some(rows) => rows.scratch.print_after(""),
         None => report::print_stdout(&summary(&solution, &seen)),
     }
 }
@@ -328,10 +329,8 @@ fn lines_of<'l>(
 
 /// The CSV rows, waiting in a scratch file until the solution is whole (an error prints none).
 struct Rows {
-    file: std::io::BufWriter<std::fs::File>,
-    path: PathBuf,
+    scratch: Scratch,
     index: usize,
-    text: String,
     /// The CL lines of the steps, read on as they come (opened with the first).
     lines: Option<postpro_cl::Lines>,
 }
@@ -339,15 +338,15 @@ struct Rows {
 impl Rows {
     /// A scratch file in the temporary folder, with the header row.
     fn new(machine: &Machine) -> std::io::Result<Rows> {
-        let path = std::env::temp_dir().join(format!("postpro-{}.solve.csv", std::process::id()));
-        let file = std::io::BufWriter::new(crate::emit::create_scratch(&path)?);
-        let mut rows = Rows { file, path, index: 0, text: String::from("step,line,kind,rapid"), lines: None };
+        let mut rows = Rows { scratch: Scratch::new("solve.csv")?, index: 0, lines: None };
+        let text = &mut rows.scratch.text;
+        text.push_str("step,line,kind,rapid");
         for a in &machine.axes {
             let unit = if a.kind == AxisKind::Rotary { "deg" } else { "mm" };
-            let _ = write!(rows.text, ",{}_{unit}", a.letter);
+            let _ = write!(text, ",{}_{unit}", a.letter);
         }
-        rows.text.push('\n');
-        rows.flush_text()?;
+        text.push('\n');
+        rows.scratch.flush_text()?;
         Ok(rows)
     }
 
@@ -362,40 +361,16 @@ impl Rows {
         for s in &collected.steps {
             let line = lines_of(&mut self.lines, file)?.line_col(s.span.start as usize)?.line;
             let joints = frame.apply(&s.joints);
-            let _ = write!(self.text, "{},{line},{},{}", self.index, kind(s.kind), u8::from(s.rapid));
+            let text = &mut self.scratch.text;
+            let _ = write!(text, "{},{line},{},{}", self.index, kind(s.kind), u8::from(s.rapid));
             self.index += 1;
             for (i, a) in machine.axes.iter().enumerate() {
-                self.text.push(',');
-                postpro_emit::push_number(&mut self.text, value(machine, i, joints[i]), usize::from(a.decimals), false);
+                text.push(',');
+                postpro_emit::push_number(text, value(machine, i, joints[i]), usize::from(a.decimals), false);
             }
-            self.text.push('\n');
+            text.push('\n');
         }
-        self.flush_text()
-    }
-
-    fn flush_text(&mut self) -> std::io::Result<()> {
-        std::io::Write::write_all(&mut self.file, self.text.as_bytes())?;
-        self.text.clear();
-        Ok(())
-    }
-
-    /// Copies the rows to standard output; a closed pipe ends quietly.
-    fn print(mut self) -> ExitCode {
-        let copied = std::io::Write::flush(&mut self.file).and_then(|()| {
-            let mut rows = std::fs::File::open(&self.path)?;
-            std::io::copy(&mut rows, &mut std::io::stdout().lock())
-        });
-        match copied {
-            Ok(_) => ExitCode::SUCCESS,
-            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
-            Err(e) => fail(&format!("error: cannot write to standard output: {e}\n"), 1),
-        }
-    }
-}
-
-impl Drop for Rows {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
+        self.scratch.flush_text()
     }
 }
 

@@ -58,8 +58,9 @@ use crate::solve::{Chosen, IktArgs};
 pub(crate) enum Purpose<'a> {
     /// The main job: the program, written as `Program` says.
     Program(Program<'a>),
-    /// `postpro predict`: the prediction alone.
-    Prediction,
+    /// `postpro predict`: the prediction alone, with `every_block` each block's row
+    /// ([`crate::predict::BlockRows`]).
+    Prediction { every_block: bool },
     /// `postpro solve`: the axis values alone.
     Solution,
 }
@@ -116,7 +117,7 @@ impl Request<'_> {
     fn nothing(&self) -> &'static str {
         match self.purpose {
             Purpose::Program(_) => WRITTEN,
-            Purpose::Prediction => crate::predict::PREDICTED,
+            Purpose::Prediction { .. } => crate::predict::PREDICTED,
             Purpose::Solution => crate::solve::SOLVED,
         }
     }
@@ -295,6 +296,8 @@ struct Predicting<'a> {
     marks: MarkFinder,
     /// The number of the prediction's blocks at which what it no longer needs is next forgotten.
     forget_at: usize,
+    /// Each block's row, as it is final (`postpro predict --blocks`).
+    rows: Option<crate::predict::BlockRows<'a>>,
 }
 
 /// The prediction's blocks between two forgettings of what it no longer needs (a few hundred
@@ -307,7 +310,11 @@ impl Predicting<'_> {
     fn take(&mut self, range: std::ops::Range<usize>) {
         for i in range {
             let op = self.blocks.operation[i] as usize;
-            self.marks.block(i, self.predictor.result(i), op);
+            let result = self.predictor.result(i);
+            self.marks.block(i, result, op);
+            if let Some(rows) = &mut self.rows {
+                rows.push(result, self.machine);
+            }
         }
     }
 }
@@ -820,6 +827,8 @@ pub(crate) struct Streamed {
     pub(crate) note_lines: Vec<usize>,
     /// How long the prediction pass took (s).
     pub(crate) seconds: f64,
+    /// Each block's row, asked for (`--blocks`): in a scratch file.
+    pub(crate) rows: Option<crate::scratch::Scratch>,
 }
 
 /// `postpro predict` without the exports that need every block or sample: the survey, then the
@@ -850,6 +859,8 @@ impl<'a> Passes<'a> {
             ),
             marks: MarkFinder::new(marks.rules(prediction)),
             forget_at: FORGET_EVERY,
+            rows: matches!(self.how.purpose, Purpose::Prediction { every_block: true })
+                .then(|| crate::predict::BlockRows::new(self.file)),
         })
     }
 
@@ -896,6 +907,7 @@ impl<'a> Passes<'a> {
         };
         let done = p.predictor.finish(&p.blocks);
         p.take(done);
+        let rows = p.rows.take().map(crate::predict::BlockRows::finish).transpose().map_err(|e| fail(&e))?;
         let seconds = started.elapsed().as_secs_f64();
         progress.finish();
         crate::predict::warn_if_abandoned(&p.predictor.totals());
@@ -928,6 +940,7 @@ impl<'a> Passes<'a> {
             marks,
             name: file.name().to_string(),
             seconds,
+            rows,
         })
     }
 }

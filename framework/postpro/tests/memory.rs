@@ -1,6 +1,7 @@
 //! Peak memory does not grow with the file (issue 15): what `--timing` reports (the resident
 //! set's high-water mark, Linux) for a program and for one twice as long, both several of the
-//! passes' 4 MiB windows of text long, in every output mode and for `check`. The passes keep a
+//! passes' 4 MiB windows of text long, in every output mode, for `check`, and for `predict
+//! --blocks` (a row per block). The passes keep a
 //! few bits per CL point (the branch graph, the linearizer's decisions) and bounded windows;
 //! a stage that kept anything per pose (50 bytes or more) would add tens of MB here.
 //!
@@ -27,8 +28,12 @@ const SLACK_MB: f64 = 1.0;
 
 /// The CL points and the peak memory (MB) of a `--timing` line.
 fn timing(said: &str) -> Option<(f64, f64)> {
-    let line = said.lines().find(|l| l.starts_with("timing: ") || l.starts_with("read "))?;
-    let points = line.strip_prefix("timing: ").and_then(|rest| rest.split(' ').next()?.parse().ok()).unwrap_or(0.0);
+    let line = said.lines().find(|l| ["timing: ", "read ", "predicted "].iter().any(|p| l.starts_with(p)))?;
+    // `predict` says its blocks, about one per CL point here.
+    let points = ["timing: ", "predicted "]
+        .iter()
+        .find_map(|p| line.strip_prefix(p)?.split(' ').next()?.parse().ok())
+        .unwrap_or(0.0);
     let peak = line.split("; peak memory ").nth(1)?.strip_suffix(" MB")?.parse().ok()?;
     Some((points, peak))
 }
@@ -49,11 +54,12 @@ fn programs(dir: &Path) -> Vec<String> {
 }
 
 /// The CL points and the peak memory (MB) of the main job on `file` in `mode` on the Mikron (or
-/// of `check`, for mode `check`).
+/// of `check`, for mode `check`; of `predict --blocks` for mode `blocks`, in mode `auto`).
 fn measure(dir: &Path, mode: &str, file: &str) -> (f64, f64) {
     let out = format!("{file}.{mode}.mpf");
     let args: Vec<&str> = match mode {
         "check" => vec!["check", "--timing", file],
+        "blocks" => vec!["predict", file, "--machine", "mikron", "--blocks", "--timing"],
         _ => vec!["--machine", "mikron", file, "-o", &out, "--mode", mode, "--timing"],
     };
     let o = postpro(&args, dir);
@@ -113,7 +119,7 @@ fn a_bspline_program_peaks_near_the_same_in_g1_with_its_stops_or_without() {
 fn peak_memory_does_not_grow_with_the_file() {
     let dir = out_dir("memory");
     let files = programs(&dir);
-    let modes = ["g1", "inverse-time", "tcp", "bspline", "check"];
+    let modes = ["g1", "inverse-time", "tcp", "bspline", "check", "blocks"];
     let cases: Vec<(&str, &String)> = modes.iter().flat_map(|m| files.iter().map(move |f| (*m, f))).collect();
     let measured = on_two_threads(&cases, |&(mode, file)| measure(&dir, mode, file));
     let mut report = Vec::new();

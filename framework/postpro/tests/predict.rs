@@ -221,10 +221,12 @@ fn the_prediction_at_the_machines_period_is_near_the_converged_one() {
 
 /// Without an export that needs every block or sample, `predict` streams the file as the main
 /// job does (two passes, a window at a time; a third where the 3+2 set-ups stand in working
-/// planes) and holds nothing proportional to it. What it prints and says is what the whole-path
-/// prediction behind `--csv` prints and says, to the last digit: 5-axis in every mode, B-spline,
-/// the VPOp planner, 3+2 programs in working planes (where the figures depend on them) and one
-/// written as axis values, a 3-axis program, and a file that does not fit the machine.
+/// planes) and holds nothing proportional to it; `--blocks` too, its rows in a scratch file.
+/// What it prints and says is what the whole-path prediction behind `--csv` prints and says, to
+/// the last digit, every other case with `--blocks` (every block's row, its CL line that of its
+/// own CL item): 5-axis in every mode, B-spline, the VPOp planner, 3+2 programs in working planes
+/// (where the figures depend on them) and one written as axis values, a 3-axis program, and a
+/// file that does not fit the machine.
 #[test]
 fn the_streamed_prediction_prints_what_the_whole_one_prints() {
     let dir = common::scratch(
@@ -261,10 +263,13 @@ fn the_streamed_prediction_prints_what_the_whole_one_prints() {
         (&vmc_file, "example-3axis-vmc", &[]),
         (CL, "example-3axis-vmc", &[]),
     ];
-    for &(file, machine, args) in cases {
-        let case = format!("{file} on {machine} {}", args.join(" "));
+    for (k, &(file, machine, args)) in cases.iter().enumerate() {
         let mut streamed = vec!["predict", file, "--machine", machine];
         streamed.extend_from_slice(args);
+        if k % 2 == 1 {
+            streamed.push("--blocks");
+        }
+        let case = format!("{file} on {machine} {}", streamed[4..].join(" "));
         let mut whole = streamed.clone();
         whole.extend_from_slice(&["--csv", "samples.csv"]);
         let (streamed, whole) = (postpro(&streamed, &dir), postpro(&whole, &dir));
@@ -273,6 +278,8 @@ fn the_streamed_prediction_prints_what_the_whole_one_prints() {
         assert_eq!(stderr(&streamed), stderr(&whole), "{case}");
         if streamed.status.success() {
             assert!(stdout(&streamed).contains("predicted cycle time"), "{case}");
+            let rows = if k % 2 == 1 { table(&stdout(&streamed)).blocks } else { 0 };
+            assert_eq!(self::rows(&stdout(&streamed)).len(), rows, "{case}: a row per block with --blocks");
         }
     }
 }
