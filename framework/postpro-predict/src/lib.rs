@@ -194,6 +194,14 @@ impl<'k> Predictor<'k> {
         range
     }
 
+    /// The samples taken since the last call, each once (`None` without [`Options::samples`]): a
+    /// streamed caller writes them out as they come and holds none.
+    pub fn take_samples(&mut self) -> Option<Samples> {
+        let samples = self.collector.samples.as_mut()?;
+        let axes = samples.axes;
+        Some(std::mem::replace(samples, Samples { axes, ..Samples::default() }))
+    }
+
     /// The result of block `i`, once final (and, streamed, until the next call).
     pub fn result(&self, i: usize) -> &BlockResult {
         &self.collector.results[i]

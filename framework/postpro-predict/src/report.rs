@@ -58,6 +58,8 @@ pub struct BlockResult {
     pub stop_lost: f64,
     /// What lost the most time on the block apart from those (`Programmed` when nothing).
     pub cause: Limit,
+    /// The operation the block is in (index into [`Prediction::operations`]).
+    pub operation: usize,
     /// The lowest predicted tip feed apart from the acceleration out of and the braking into
     /// exact stops, plunges and retracts (mm/min; the programmed feed when the block is at it
     /// everywhere else).
@@ -575,6 +577,7 @@ impl Collector {
                 lost: 0.0,
                 stop_lost: 0.0,
                 cause: Limit::Programmed,
+                operation: blocks.operation[i] as usize,
                 min_feed_between_stops: programmed,
             });
             self.entered.push(0.0);

@@ -19,7 +19,7 @@ use crate::html;
 use crate::job::{Job, fail, prepare};
 use crate::plot;
 use crate::report;
-use crate::scratch::Scratch;
+use crate::scratch::{LinesOf, Scratch};
 use crate::solve::{IktArgs, MachineArgs};
 
 /// The prediction options, shared by `predict` and the main job.
@@ -315,13 +315,17 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
         expand_cycles: args.cycles == crate::emit::CyclesArg::Expand,
         planes: args.plane_mode == crate::emit::PlaneModeArg::Cycle,
     };
-    // The figures and the block rows stream; every block's results or samples are held for the
-    // exports.
-    let whole = args.csv.is_some()
-        || args.json.is_some()
-        || args.plot.is_some()
-        || args.report.is_some()
-        || args.period.is_some();
+    // The figures, the block rows and the CSV files stream; every block's results or samples are
+    // held for the other exports, and for the CSV files where they are a device or a pipe
+    // (written in place) or in B-spline mode (a sample's path length counts from the start of its
+    // spline, whose block a streamed prediction may have forgotten).
+    let csv_whole = args.csv.as_ref().is_some_and(|path| {
+        args.mode == ModeArg::Bspline
+            || crate::emit::is_special_file(path)
+            || crate::emit::is_special_file(&path.with_extension("blocks.csv"))
+    });
+    let whole =
+        csv_whole || args.json.is_some() || args.plot.is_some() || args.report.is_some() || args.period.is_some();
     if !whole {
         return streamed(args, &chosen, dialect, shapes);
     }
@@ -399,7 +403,7 @@ fn streamed(
     shapes: crate::job::Shapes,
 ) -> ExitCode {
     let request = crate::stream::Request {
-        purpose: crate::stream::Purpose::Prediction { every_block: args.blocks },
+        purpose: crate::stream::Purpose::Prediction { every_block: args.blocks, csv: args.csv.as_deref() },
         file: &args.file,
         chosen,
         ikt: &args.ikt,
@@ -415,6 +419,11 @@ fn streamed(
     };
     if args.timing {
         print_timing(s.blocks, s.prediction.totals().samples, s.seconds);
+    }
+    if let Some(csv) = s.csv
+        && let Err(message) = csv.keep()
+    {
+        return fail(&message, 1);
     }
     let figures = Figures {
         name: &s.name,
@@ -679,11 +688,10 @@ fn block_row(out: &mut String, i: usize, line: usize, b: &BlockResult, machine: 
 
 /// `--blocks` streamed: each block's row as the prediction makes it final, in a scratch file
 /// until the prediction is whole (a million blocks are a hundred megabytes of rows), its CL line
-/// read on in `file` as the blocks come. The first error is kept and said at the end.
+/// read on in the CL file as the blocks come. The first error is kept and said at the end.
 pub(crate) struct BlockRows<'a> {
-    file: &'a postpro_cl::ClFile,
     scratch: Option<Scratch>,
-    lines: Option<postpro_cl::Lines>,
+    lines: LinesOf<'a>,
     /// The rows written.
     count: usize,
     failed: Option<String>,
@@ -696,25 +704,19 @@ impl<'a> BlockRows<'a> {
             Ok(scratch) => (Some(scratch), None),
             Err(e) => (None, Some(format!("error: cannot make a scratch file for the block rows: {e}\n"))),
         };
-        BlockRows { file, scratch, lines: None, count: 0, failed }
+        BlockRows { scratch, lines: LinesOf::new(file), count: 0, failed }
     }
 
     /// The row of the next block, final.
     pub(crate) fn push(&mut self, b: &BlockResult, machine: &Machine) {
         let Some(scratch) = self.scratch.as_mut().filter(|_| self.failed.is_none()) else { return };
-        let file = self.file;
-        let lines = match &mut self.lines {
-            Some(lines) => Ok(lines),
-            None => file.lines().map(|lines| self.lines.insert(lines)).map_err(|e| e.to_string()),
-        };
-        let line = lines.and_then(|lines| lines.line_col(b.span.start as usize).map_err(|e| e.to_string()));
-        let written = line.and_then(|at| {
-            block_row(&mut scratch.text, self.count, at.line, b, machine);
+        let written = self.lines.line(b.span.start).and_then(|line| {
+            block_row(&mut scratch.text, self.count, line, b, machine);
             self.count += 1;
-            if scratch.text.len() < 1 << 16 { Ok(()) } else { scratch.flush_text().map_err(|e| e.to_string()) }
+            flush_now_and_then(scratch)
         });
         if let Err(e) = written {
-            self.failed = Some(format!("error: cannot write the block rows ({}): {e}\n", file.name()));
+            self.failed = Some(format!("error: cannot write the block rows: {e}\n"));
         }
     }
 
@@ -722,6 +724,90 @@ impl<'a> BlockRows<'a> {
     pub(crate) fn finish(self) -> Result<Scratch, String> {
         match (self.failed, self.scratch) {
             (None, Some(scratch)) => Ok(scratch),
+            (failed, _) => Err(failed.unwrap_or_default()),
+        }
+    }
+}
+
+/// Writes a scratch file's rows on once they are some 64 kB.
+fn flush_now_and_then(scratch: &mut Scratch) -> Result<(), String> {
+    if scratch.text.len() < 1 << 16 { Ok(()) } else { scratch.flush_text().map_err(|e| e.to_string()) }
+}
+
+/// `--csv` streamed: the samples' rows as the prediction takes them and the blocks' as it makes
+/// them final, each in a file beside its target, renamed over it once the prediction is whole
+/// ([`CsvFiles::keep`]): an error leaves neither. The first error is kept and said at the end.
+pub(crate) struct CsvRows<'a> {
+    files: Option<CsvFiles>,
+    lines: LinesOf<'a>,
+    /// The block rows written.
+    count: usize,
+    failed: Option<String>,
+}
+
+/// The two CSV files of `--csv`, written, to be put in place.
+pub(crate) struct CsvFiles {
+    samples: (Scratch, PathBuf),
+    blocks: (Scratch, PathBuf),
+}
+
+impl CsvFiles {
+    /// Renames both over their targets.
+    pub(crate) fn keep(self) -> Result<(), String> {
+        for (scratch, target) in [self.samples, self.blocks] {
+            scratch.keep_as(&target).map_err(|e| format!("error: cannot write {}: {e}\n", target.display()))?;
+        }
+        Ok(())
+    }
+}
+
+impl<'a> CsvRows<'a> {
+    /// The rows of the program of `file` on `machine`, for the samples' CSV `path` (the blocks'
+    /// beside it, `.blocks.csv`).
+    pub(crate) fn new(file: &'a postpro_cl::ClFile, path: &Path, machine: &Machine) -> CsvRows<'a> {
+        let blocks_path = path.with_extension("blocks.csv");
+        let made = |target: &Path, header: String| {
+            let mut scratch = Scratch::beside(target)?;
+            scratch.text = header;
+            Ok::<_, std::io::Error>((scratch, target.to_path_buf()))
+        };
+        let files = made(path, samples_header(machine))
+            .and_then(|samples| Ok(CsvFiles { samples, blocks: made(&blocks_path, BLOCKS_CSV_HEADER.to_string())? }));
+        let (files, failed) = match files {
+            Ok(files) => (Some(files), None),
+            Err(e) => (None, Some(format!("error: cannot write {}: {e}\n", path.display()))),
+        };
+        CsvRows { files, lines: LinesOf::new(file), count: 0, failed }
+    }
+
+    /// The rows of the samples taken since the last call.
+    pub(crate) fn samples(&mut self, samples: &postpro_predict::Samples, machine: &Machine) {
+        let Some(files) = self.files.as_mut().filter(|_| self.failed.is_none()) else { return };
+        let scratch = &mut files.samples.0;
+        sample_rows(&mut scratch.text, samples, machine);
+        if let Err(e) = flush_now_and_then(scratch) {
+            self.failed = Some(format!("error: cannot write {}: {e}\n", files.samples.1.display()));
+        }
+    }
+
+    /// The row of the next block, final.
+    pub(crate) fn block(&mut self, b: &BlockResult, machine: &Machine) {
+        let Some(files) = self.files.as_mut().filter(|_| self.failed.is_none()) else { return };
+        let scratch = &mut files.blocks.0;
+        let written = self.lines.line(b.span.start).and_then(|line| {
+            block_csv_row(&mut scratch.text, self.count, line, b, machine);
+            self.count += 1;
+            flush_now_and_then(scratch)
+        });
+        if let Err(e) = written {
+            self.failed = Some(format!("error: cannot write {}: {e}\n", files.blocks.1.display()));
+        }
+    }
+
+    /// The files, or the first error.
+    pub(crate) fn finish(self) -> Result<CsvFiles, String> {
+        match (self.failed, self.files) {
+            (None, Some(files)) => Ok(files),
             (failed, _) => Err(failed.unwrap_or_default()),
         }
     }
@@ -742,6 +828,13 @@ fn limit_names(prediction: &Prediction) -> Vec<Limit> {
 
 fn samples_csv(prediction: &Prediction, machine: &Machine) -> String {
     let Some(s) = &prediction.samples else { return String::new() };
+    let mut out = samples_header(machine);
+    sample_rows(&mut out, s, machine);
+    out
+}
+
+/// The header row of the samples' CSV.
+fn samples_header(machine: &Machine) -> String {
     let mut out = String::from("time_s,path_mm,block,programmed_mm_min,feed_mm_min,relative_feed_mm_min,limit");
     let unit = |i: usize| if machine.axes[i].kind == AxisKind::Rotary { "deg" } else { "mm" };
     for what in ["", "_per_s", "_per_s2", "_per_s3"] {
@@ -756,6 +849,11 @@ fn samples_csv(prediction: &Prediction, machine: &Machine) -> String {
         }
     }
     out.push('\n');
+    out
+}
+
+/// The CSV rows of samples `s`.
+fn sample_rows(out: &mut String, s: &postpro_predict::Samples, machine: &Machine) {
     let n = s.axes;
     for r in 0..s.len() {
         let _ = write!(
@@ -772,44 +870,44 @@ fn samples_csv(prediction: &Prediction, machine: &Machine) -> String {
         for column in [&s.position, &s.velocity, &s.acceleration, &s.jerk] {
             for i in 0..n {
                 out.push(',');
-                postpro_emit::push_number(&mut out, nc(machine, i, column[r * n + i]), 6, false);
+                postpro_emit::push_number(out, nc(machine, i, column[r * n + i]), 6, false);
             }
         }
         out.push('\n');
     }
-    out
 }
 
 fn blocks_csv(prediction: &Prediction, machine: &Machine, job: &Job) -> String {
-    let mut out = String::from(
-        "block,line,kind,length_mm,programmed_mm_min,min_feed_mm_min,mean_feed_mm_min,time_s,limit,time_lost_s,\
-         stop_lost_s,cause,operation\n",
-    );
+    let mut out = String::from(BLOCKS_CSV_HEADER);
     for (i, b) in prediction.blocks.iter().enumerate() {
-        let _ = writeln!(
-            out,
-            "{},{},{},{:.4},{:.1},{:.2},{:.2},{:.6},{},{:.6},{:.6},{},{}",
-            i + 1,
-            block_line(job, b),
-            kind_name(b.kind),
-            b.length,
-            b.programmed,
-            b.min_feed,
-            b.mean_feed,
-            b.time,
-            describe(b.limit, machine),
-            b.lost,
-            b.stop_lost,
-            describe(b.cause, machine),
-            operation_of(prediction, i) + 1
-        );
+        block_csv_row(&mut out, i, block_line(job, b), b, machine);
     }
     out
 }
 
-/// The operation of block `i` (index into the prediction's operations).
-fn operation_of(prediction: &Prediction, i: usize) -> usize {
-    prediction.operations.iter().position(|o| o.first <= i && i <= o.last).unwrap_or(0)
+/// The header row of the blocks' CSV.
+const BLOCKS_CSV_HEADER: &str = "block,line,kind,length_mm,programmed_mm_min,min_feed_mm_min,mean_feed_mm_min,time_s,\
+                                 limit,time_lost_s,stop_lost_s,cause,operation\n";
+
+/// The CSV row of block `i` (from 0), on CL line `line`.
+fn block_csv_row(out: &mut String, i: usize, line: usize, b: &BlockResult, machine: &Machine) {
+    let _ = writeln!(
+        out,
+        "{},{},{},{:.4},{:.1},{:.2},{:.2},{:.6},{},{:.6},{:.6},{},{}",
+        i + 1,
+        line,
+        kind_name(b.kind),
+        b.length,
+        b.programmed,
+        b.min_feed,
+        b.mean_feed,
+        b.time,
+        describe(b.limit, machine),
+        b.lost,
+        b.stop_lost,
+        describe(b.cause, machine),
+        b.operation + 1
+    );
 }
 
 fn causes_json(causes: &[Cause], machine: &Machine) -> Vec<serde_json::Value> {
@@ -834,7 +932,7 @@ fn json(run: &Run<'_>) -> String {
                 "time_s": b.time, "limit": describe(b.limit, machine), "time_lost_s": b.lost,
                 "stop_lost_s": b.stop_lost, "cause": describe(b.cause, machine),
                 "min_feed_between_stops_mm_min": b.min_feed_between_stops,
-                "operation": operation_of(prediction, i) + 1,
+                "operation": b.operation + 1,
             })
         })
         .collect();

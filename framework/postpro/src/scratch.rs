@@ -1,9 +1,9 @@
 //! Rows of output that wait in a scratch file until the command's figures are whole: an error
-//! prints none of them, and memory holds none (`postpro solve --csv`, `postpro predict
-//! --blocks`, a row per step or per block of a file of millions of points).
+//! prints or writes none of them, and memory holds none (`postpro solve --csv`, `postpro predict
+//! --blocks` and `--csv`, a row per step, block or sample of a file of millions of points).
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -13,21 +13,41 @@ use crate::job::fail;
 /// while the old one is still there.
 static MADE: AtomicUsize = AtomicUsize::new(0);
 
-/// Text written on to a scratch file in the temporary folder, removed when dropped.
+/// Text written on to a scratch file, removed when dropped unless kept ([`Self::keep_as`]).
 pub(crate) struct Scratch {
     file: std::io::BufWriter<std::fs::File>,
-    path: PathBuf,
+    /// Where it is (`None` once kept).
+    path: Option<PathBuf>,
     /// The rows not yet written on ([`Self::flush_text`]).
     pub(crate) text: String,
 }
 
 impl Scratch {
-    /// A new scratch file; `what` ends its name.
+    /// A new scratch file in the temporary folder; `what` ends its name.
     pub(crate) fn new(what: &str) -> std::io::Result<Scratch> {
         let n = MADE.fetch_add(1, Ordering::Relaxed);
-        let path = std::env::temp_dir().join(format!("postpro-{}-{n}.{what}", std::process::id()));
+        Scratch::at(std::env::temp_dir().join(format!("postpro-{}-{n}.{what}", std::process::id())))
+    }
+
+    /// A new scratch file beside `target`, to be renamed over it ([`Self::keep_as`]).
+    pub(crate) fn beside(target: &Path) -> std::io::Result<Scratch> {
+        let n = MADE.fetch_add(1, Ordering::Relaxed);
+        Scratch::at(crate::emit::beside(target, &format!("{n}.tmp")))
+    }
+
+    fn at(path: PathBuf) -> std::io::Result<Scratch> {
         let file = std::io::BufWriter::new(crate::emit::create_scratch(&path)?);
-        Ok(Scratch { file, path, text: String::new() })
+        Ok(Scratch { file, path: Some(path), text: String::new() })
+    }
+
+    /// Writes the rest on and renames the file over `target`.
+    pub(crate) fn keep_as(mut self, target: &Path) -> std::io::Result<()> {
+        self.flush_text()?;
+        self.file.flush()?;
+        let path = self.path.take().unwrap_or_default();
+        std::fs::rename(&path, target).inspect_err(|_| {
+            let _ = std::fs::remove_file(&path);
+        })
     }
 
     /// Writes [`Self::text`] on to the file, and empties it.
@@ -40,7 +60,7 @@ impl Scratch {
     /// Copies what was written to standard output, after `before`; a closed pipe ends quietly.
     pub(crate) fn print_after(mut self, before: &str) -> ExitCode {
         let copied = self.flush_text().and_then(|()| self.file.flush()).and_then(|()| {
-            let mut rows = std::fs::File::open(&self.path)?;
+            let mut rows = std::fs::File::open(self.path.as_deref().unwrap_or(Path::new("")))?;
             let mut out = std::io::stdout().lock();
             out.write_all(before.as_bytes())?;
             std::io::copy(&mut rows, &mut out)?;
@@ -56,6 +76,30 @@ impl Scratch {
 
 impl Drop for Scratch {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
+        if let Some(path) = &self.path {
+            let _ = std::fs::remove_file(path);
+        }
+    }
+}
+
+/// The CL lines of offsets of `file` asked for in increasing order, read on as they come (the
+/// file opened again at the first).
+pub(crate) struct LinesOf<'a> {
+    file: &'a postpro_cl::ClFile,
+    lines: Option<postpro_cl::Lines>,
+}
+
+impl<'a> LinesOf<'a> {
+    pub(crate) fn new(file: &'a postpro_cl::ClFile) -> LinesOf<'a> {
+        LinesOf { file, lines: None }
+    }
+
+    /// The line of byte `offset`, or what went wrong reading the file again.
+    pub(crate) fn line(&mut self, offset: u32) -> Result<usize, String> {
+        let lines = match &mut self.lines {
+            Some(lines) => lines,
+            None => self.lines.insert(self.file.lines().map_err(|e| e.to_string())?),
+        };
+        lines.line_col(offset as usize).map(|at| at.line).map_err(|e| e.to_string())
     }
 }

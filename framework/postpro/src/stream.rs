@@ -59,8 +59,9 @@ pub(crate) enum Purpose<'a> {
     /// The main job: the program, written as `Program` says.
     Program(Program<'a>),
     /// `postpro predict`: the prediction alone, with `every_block` each block's row
-    /// ([`crate::predict::BlockRows`]).
-    Prediction { every_block: bool },
+    /// ([`crate::predict::BlockRows`]), with `csv` the samples' and blocks' CSV files there
+    /// ([`crate::predict::CsvRows`]).
+    Prediction { every_block: bool, csv: Option<&'a Path> },
     /// `postpro solve`: the axis values alone.
     Solution,
 }
@@ -298,6 +299,8 @@ struct Predicting<'a> {
     forget_at: usize,
     /// Each block's row, as it is final (`postpro predict --blocks`).
     rows: Option<crate::predict::BlockRows<'a>>,
+    /// The CSV rows of the samples and blocks (`postpro predict --csv`).
+    csv: Option<crate::predict::CsvRows<'a>>,
 }
 
 /// The prediction's blocks between two forgettings of what it no longer needs (a few hundred
@@ -315,6 +318,14 @@ impl Predicting<'_> {
             if let Some(rows) = &mut self.rows {
                 rows.push(result, self.machine);
             }
+            if let Some(csv) = &mut self.csv {
+                csv.block(result, self.machine);
+            }
+        }
+        if let Some(csv) = &mut self.csv
+            && let Some(samples) = self.predictor.take_samples()
+        {
+            csv.samples(&samples, self.machine);
         }
     }
 }
@@ -829,6 +840,8 @@ pub(crate) struct Streamed {
     pub(crate) seconds: f64,
     /// Each block's row, asked for (`--blocks`): in a scratch file.
     pub(crate) rows: Option<crate::scratch::Scratch>,
+    /// The CSV files, asked for (`--csv`): written, to be put in place.
+    pub(crate) csv: Option<crate::predict::CsvFiles>,
 }
 
 /// `postpro predict` without the exports that need every block or sample: the survey, then the
@@ -847,20 +860,24 @@ impl<'a> Passes<'a> {
         let (kin, mode) = (self.pass.kin, self.mode);
         let timing =
             if mode.feeds_the_tip() { postpro_predict::Timing::TipFeed } else { postpro_predict::Timing::AxisFeed };
+        let (every_block, csv) = match self.how.purpose {
+            Purpose::Prediction { every_block, csv } => (every_block, csv),
+            _ => (false, None),
+        };
         self.how.prediction.map(|(prediction, marks)| Predicting {
             machine: kin.machine(),
             reader: Reader::new(timing),
             blocks: Blocks::new(kin.machine()),
             predictor: Predictor::new(
                 kin,
-                &crate::predict::options_for(mode, prediction),
+                &postpro_predict::Options { samples: csv.is_some(), ..crate::predict::options_for(mode, prediction) },
                 kin.machine().axes.len(),
                 true,
             ),
             marks: MarkFinder::new(marks.rules(prediction)),
             forget_at: FORGET_EVERY,
-            rows: matches!(self.how.purpose, Purpose::Prediction { every_block: true })
-                .then(|| crate::predict::BlockRows::new(self.file)),
+            rows: every_block.then(|| crate::predict::BlockRows::new(self.file)),
+            csv: csv.map(|path| crate::predict::CsvRows::new(self.file, path, kin.machine())),
         })
     }
 
@@ -908,6 +925,7 @@ impl<'a> Passes<'a> {
         let done = p.predictor.finish(&p.blocks);
         p.take(done);
         let rows = p.rows.take().map(crate::predict::BlockRows::finish).transpose().map_err(|e| fail(&e))?;
+        let csv = p.csv.take().map(crate::predict::CsvRows::finish).transpose().map_err(|e| fail(&e))?;
         let seconds = started.elapsed().as_secs_f64();
         progress.finish();
         crate::predict::warn_if_abandoned(&p.predictor.totals());
@@ -941,6 +959,7 @@ impl<'a> Passes<'a> {
             name: file.name().to_string(),
             seconds,
             rows,
+            csv,
         })
     }
 }

@@ -1,7 +1,7 @@
 //! Peak memory does not grow with the file (issue 15): what `--timing` reports (the resident
 //! set's high-water mark, Linux) for a program and for one twice as long, both several of the
 //! passes' 4 MiB windows of text long, in every output mode, for `check`, and for `predict
-//! --blocks` (a row per block). The passes keep a
+//! --blocks` (a row per block) and `--csv` (a row per sample and per block). The passes keep a
 //! few bits per CL point (the branch graph, the linearizer's decisions) and bounded windows;
 //! a stage that kept anything per pose (50 bytes or more) would add tens of MB here.
 //!
@@ -54,16 +54,21 @@ fn programs(dir: &Path) -> Vec<String> {
 }
 
 /// The CL points and the peak memory (MB) of the main job on `file` in `mode` on the Mikron (or
-/// of `check`, for mode `check`; of `predict --blocks` for mode `blocks`, in mode `auto`).
+/// of `check`, for mode `check`; of `predict --blocks` and `--csv` for modes `blocks` and `csv`,
+/// in mode `auto`).
 fn measure(dir: &Path, mode: &str, file: &str) -> (f64, f64) {
     let out = format!("{file}.{mode}.mpf");
+    let csv = format!("{file}.csv");
     let args: Vec<&str> = match mode {
         "check" => vec!["check", "--timing", file],
         "blocks" => vec!["predict", file, "--machine", "mikron", "--blocks", "--timing"],
+        "csv" => vec!["predict", file, "--machine", "mikron", "--csv", &csv, "--timing"],
         _ => vec!["--machine", "mikron", file, "-o", &out, "--mode", mode, "--timing"],
     };
     let o = postpro(&args, dir);
-    let _ = std::fs::remove_file(&out);
+    for written in [out.clone(), csv.clone(), format!("{file}.blocks.csv")] {
+        let _ = std::fs::remove_file(written);
+    }
     assert_eq!(o.status.code(), Some(0), "postpro {}:\n{}", args.join(" "), stderr(&o));
     timing(&stderr(&o)).unwrap_or_else(|| panic!("postpro {}: no peak memory said:\n{}", args.join(" "), stderr(&o)))
 }
@@ -119,7 +124,7 @@ fn a_bspline_program_peaks_near_the_same_in_g1_with_its_stops_or_without() {
 fn peak_memory_does_not_grow_with_the_file() {
     let dir = out_dir("memory");
     let files = programs(&dir);
-    let modes = ["g1", "inverse-time", "tcp", "bspline", "check", "blocks"];
+    let modes = ["g1", "inverse-time", "tcp", "bspline", "check", "blocks", "csv"];
     let cases: Vec<(&str, &String)> = modes.iter().flat_map(|m| files.iter().map(move |f| (*m, f))).collect();
     let measured = on_two_threads(&cases, |&(mode, file)| measure(&dir, mode, file));
     let mut report = Vec::new();

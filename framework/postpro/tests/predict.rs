@@ -222,7 +222,7 @@ fn the_prediction_at_the_machines_period_is_near_the_converged_one() {
 /// Without an export that needs every block or sample, `predict` streams the file as the main
 /// job does (two passes, a window at a time; a third where the 3+2 set-ups stand in working
 /// planes) and holds nothing proportional to it; `--blocks` too, its rows in a scratch file.
-/// What it prints and says is what the whole-path prediction behind `--csv` prints and says, to
+/// What it prints and says is what the whole-path prediction behind `--json` prints and says, to
 /// the last digit, every other case with `--blocks` (every block's row, its CL line that of its
 /// own CL item): 5-axis in every mode, B-spline, the VPOp planner, 3+2 programs in working planes
 /// (where the figures depend on them) and one written as axis values, a 3-axis program, and a
@@ -271,7 +271,7 @@ fn the_streamed_prediction_prints_what_the_whole_one_prints() {
         }
         let case = format!("{file} on {machine} {}", streamed[4..].join(" "));
         let mut whole = streamed.clone();
-        whole.extend_from_slice(&["--csv", "samples.csv"]);
+        whole.extend_from_slice(&["--json", "whole.json"]);
         let (streamed, whole) = (postpro(&streamed, &dir), postpro(&whole, &dir));
         assert_eq!(streamed.status.code(), whole.status.code(), "{case}: {}", stderr(&streamed));
         assert_eq!(stdout(&streamed), stdout(&whole), "{case}");
@@ -282,6 +282,51 @@ fn the_streamed_prediction_prints_what_the_whole_one_prints() {
             assert_eq!(self::rows(&stdout(&streamed)).len(), rows, "{case}: a row per block with --blocks");
         }
     }
+}
+
+/// `--csv` streams too (but in B-spline mode), its rows written beside the files and renamed
+/// over them at the end: the samples' and the blocks' CSV are those of the whole-path prediction,
+/// byte for byte (5-axis in g1, inverse time and TCP with VPOp, 3+2 in working planes, a 3-axis
+/// program); a file that does not fit the machine leaves neither, nor anything beside them.
+#[test]
+fn the_streamed_csv_files_are_the_whole_ones() {
+    let dir = common::scratch(
+        "predict",
+        "streamed-csv",
+        &[(EXAMPLE, CL), ("examples/cl/hypar-3plus2.cl", "hypar-3plus2.cl")],
+    );
+    let vmc_file = tests::shared_cl_dir().join("steptools__STEPNode__Plane_1.cldata");
+    let vmc_file = vmc_file.to_str().expect("a UTF-8 path");
+    let cases: &[(&str, &str, &[&str])] = &[
+        (CL, MACHINE, &["--mode", "g1"]),
+        (CL, MACHINE, &["--mode", "inverse-time"]),
+        (CL, MACHINE, &["--mode", "tcp", "--planner", "vpop"]),
+        ("hypar-3plus2.cl", "haas-umc750", &[]),
+        (vmc_file, "example-3axis-vmc", &[]),
+    ];
+    let read = |name: &str| std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    for &(file, machine, args) in cases {
+        let case = format!("{file} on {machine} {}", args.join(" "));
+        let run = |extra: &[&str]| {
+            let o = postpro(&[&["predict", file, "--machine", machine], args, extra].concat(), &dir);
+            assert_eq!(o.status.code(), Some(0), "{case}: {}", stderr(&o));
+            stdout(&o)
+        };
+        let streamed = run(&["--csv", "streamed.csv"]);
+        let whole = run(&["--csv", "whole.csv", "--json", "whole.json"]);
+        assert_eq!(streamed, whole, "{case}");
+        assert!(read("streamed.csv") == read("whole.csv"), "{case}: the samples differ");
+        assert!(read("streamed.blocks.csv") == read("whole.blocks.csv"), "{case}: the blocks differ");
+        let blocks = String::from_utf8(read("streamed.blocks.csv")).expect("UTF-8");
+        assert_eq!(blocks.lines().count(), table(&streamed).blocks + 1, "{case}: a row per block");
+    }
+    let before: Vec<_> =
+        std::fs::read_dir(&dir).expect("the folder").map(|e| e.expect("an entry").file_name()).collect();
+    let o = postpro(&["predict", CL, "--machine", "example-3axis-vmc", "--csv", "failed.csv"], &dir);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let after: Vec<_> =
+        std::fs::read_dir(&dir).expect("the folder").map(|e| e.expect("an entry").file_name()).collect();
+    assert_eq!(before, after, "a failed prediction leaves nothing");
 }
 
 #[test]
