@@ -220,12 +220,16 @@ impl<'k> Predictor<'k> {
         if self.forget {
             self.track.forget_before(piece);
             self.stepper.forget_before(piece);
-            self.collector.forget_before(from, piece);
+            // A sample's path length on a spline counts from the spline's first block: that
+            // block's start is kept while the spline is.
+            let mut spline_from = usize::MAX;
             if let Maker::Vpop(m) = &mut self.maker
                 && let Some(curves) = m.curves.as_mut()
             {
                 curves.forget_before(piece);
+                spline_from = curves.start_block.get(curves.start_block.base()).copied().unwrap_or(usize::MAX);
             }
+            self.collector.forget_before(from, piece, spline_from);
         }
         from
     }

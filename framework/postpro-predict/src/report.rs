@@ -821,14 +821,17 @@ impl Collector {
         })
     }
 
-    /// Forgets what it holds of the blocks before block `b` and the pieces before piece `p`.
-    pub(crate) fn forget_before(&mut self, b: usize, p: usize) {
+    /// Forgets what it holds of the blocks before block `b` and the pieces before piece `p`, but
+    /// where the blocks start along the path from block `path_from` on (the first block of the
+    /// spline the motion is on, whose samples count their path length from it).
+    pub(crate) fn forget_before(&mut self, b: usize, p: usize, path_from: usize) {
         let b = b.min(self.finalized);
         self.piece_start.forget_before(p);
         self.piece_length.forget_before(p);
-        for w in [&mut self.scale, &mut self.span, &mut self.path_start, &mut self.entered] {
+        for w in [&mut self.scale, &mut self.span, &mut self.entered] {
             w.forget_before(b);
         }
+        self.path_start.forget_before(b.min(path_from));
         for w in [&mut self.min_speed, &mut self.min_speed_between_stops, &mut self.asked, &mut self.at_feed] {
             w.forget_before(b);
         }

@@ -317,12 +317,9 @@ pub(crate) fn main(args: &PredictArgs) -> ExitCode {
     };
     // The figures, the block rows and the CSV files stream; every block's results or samples are
     // held for the other exports, and for the CSV files where they are a device or a pipe
-    // (written in place) or in B-spline mode (a sample's path length counts from the start of its
-    // spline, whose block a streamed prediction may have forgotten).
+    // (written in place).
     let csv_whole = args.csv.as_ref().is_some_and(|path| {
-        args.mode == ModeArg::Bspline
-            || crate::emit::is_special_file(path)
-            || crate::emit::is_special_file(&path.with_extension("blocks.csv"))
+        crate::emit::is_special_file(path) || crate::emit::is_special_file(&path.with_extension("blocks.csv"))
     });
     let whole =
         csv_whole || args.json.is_some() || args.plot.is_some() || args.report.is_some() || args.period.is_some();

@@ -284,16 +284,21 @@ fn the_streamed_prediction_prints_what_the_whole_one_prints() {
     }
 }
 
-/// `--csv` streams too (but in B-spline mode), its rows written beside the files and renamed
-/// over them at the end: the samples' and the blocks' CSV are those of the whole-path prediction,
-/// byte for byte (5-axis in g1, inverse time and TCP with VPOp, 3+2 in working planes, a 3-axis
-/// program); a file that does not fit the machine leaves neither, nor anything beside them.
+/// `--csv` streams too, its rows written beside the files and renamed over them at the end: the
+/// samples' and the blocks' CSV are those of the whole-path prediction, byte for byte (5-axis in
+/// g1, inverse time, TCP with VPOp and B-spline, whose samples count their path length from
+/// their spline's first block, 3+2 in working planes, a 3-axis program); a file that does not
+/// fit the machine leaves neither, nor anything beside them.
 #[test]
 fn the_streamed_csv_files_are_the_whole_ones() {
     let dir = common::scratch(
         "predict",
         "streamed-csv",
-        &[(EXAMPLE, CL), ("examples/cl/hypar-3plus2.cl", "hypar-3plus2.cl")],
+        &[
+            (EXAMPLE, CL),
+            ("examples/cl/hypar-3plus2.cl", "hypar-3plus2.cl"),
+            ("examples/cl/manta-5axis.cl", "manta-5axis.cl"),
+        ],
     );
     let vmc_file = tests::shared_cl_dir().join("steptools__STEPNode__Plane_1.cldata");
     let vmc_file = vmc_file.to_str().expect("a UTF-8 path");
@@ -301,6 +306,7 @@ fn the_streamed_csv_files_are_the_whole_ones() {
         (CL, MACHINE, &["--mode", "g1"]),
         (CL, MACHINE, &["--mode", "inverse-time"]),
         (CL, MACHINE, &["--mode", "tcp", "--planner", "vpop"]),
+        ("manta-5axis.cl", "maho600e", &["--mode", "bspline"]),
         ("hypar-3plus2.cl", "haas-umc750", &[]),
         (vmc_file, "example-3axis-vmc", &[]),
     ];
