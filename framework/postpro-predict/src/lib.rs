@@ -194,12 +194,13 @@ impl<'k> Predictor<'k> {
         range
     }
 
-    /// The samples taken since the last call, each once (`None` without [`Options::samples`]): a
-    /// streamed caller writes them out as they come and holds none.
-    pub fn take_samples(&mut self) -> Option<Samples> {
-        let samples = self.collector.samples.as_mut()?;
-        let axes = samples.axes;
-        Some(std::mem::replace(samples, Samples { axes, ..Samples::default() }))
+    /// Hands the samples taken since the last call to `each`, then forgets them (nothing without
+    /// [`Options::samples`]): a streamed caller writes them out as they come and holds none.
+    pub fn drain_samples(&mut self, each: impl FnOnce(&Samples)) {
+        if let Some(samples) = self.collector.samples.as_mut() {
+            each(samples);
+            samples.clear();
+        }
     }
 
     /// The result of block `i`, once final (and, streamed, until the next call).

@@ -123,6 +123,18 @@ impl Samples {
     pub fn is_empty(&self) -> bool {
         self.time.is_empty()
     }
+
+    /// Forgets every sample, keeping the room they took.
+    pub(crate) fn clear(&mut self) {
+        for column in [&mut self.time, &mut self.path, &mut self.feed, &mut self.programmed, &mut self.relative_feed] {
+            column.clear();
+        }
+        for column in [&mut self.position, &mut self.velocity, &mut self.acceleration, &mut self.jerk] {
+            column.clear();
+        }
+        self.block.clear();
+        self.limit.clear();
+    }
 }
 
 /// The whole-program figures.

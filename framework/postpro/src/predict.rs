@@ -683,37 +683,66 @@ fn block_row(out: &mut String, i: usize, line: usize, b: &BlockResult, machine: 
     );
 }
 
-/// `--blocks` streamed: each block's row as the prediction makes it final, in a scratch file
-/// until the prediction is whole (a million blocks are a hundred megabytes of rows), its CL line
-/// read on in the CL file as the blocks come. The first error is kept and said at the end.
+/// Each block's row as the prediction makes it final, in a scratch file until the prediction is
+/// whole (a million blocks are a hundred megabytes of rows), its CL line read on in the CL file
+/// as the blocks come: `--blocks` streamed, and the blocks' CSV of `--csv`. The first error is
+/// kept and said at the end.
 pub(crate) struct BlockRows<'a> {
+    file: &'a postpro_cl::ClFile,
     scratch: Option<Scratch>,
-    lines: LinesOf<'a>,
+    lines: LinesOf,
+    /// Formats the row of block `i` (from 0) on a CL line.
+    row: fn(&mut String, usize, usize, &BlockResult, &Machine),
     /// The rows written.
     count: usize,
+    /// What an error says cannot be written.
+    what: String,
     failed: Option<String>,
 }
 
 impl<'a> BlockRows<'a> {
-    /// The rows of the blocks of `file`'s program.
-    pub(crate) fn new(file: &'a postpro_cl::ClFile) -> BlockRows<'a> {
-        let (scratch, failed) = match Scratch::new("predict.blocks") {
+    /// The rows of `--blocks` for the program of `file`, in the temporary folder.
+    pub(crate) fn table(file: &'a postpro_cl::ClFile) -> BlockRows<'a> {
+        let made = Scratch::new("predict.blocks")
+            .map_err(|e| format!("error: cannot make a scratch file for the block rows: {e}\n"));
+        BlockRows::with(file, made, block_row, "the block rows".into())
+    }
+
+    /// The blocks' CSV of the program of `file`, beside `target`.
+    fn csv(file: &'a postpro_cl::ClFile, target: &Path) -> BlockRows<'a> {
+        let what = target.display().to_string();
+        let made = Scratch::beside(target)
+            .map(|mut scratch| {
+                scratch.text.push_str(BLOCKS_CSV_HEADER);
+                scratch
+            })
+            .map_err(|e| format!("error: cannot write {what}: {e}\n"));
+        BlockRows::with(file, made, block_csv_row, what)
+    }
+
+    fn with(
+        file: &'a postpro_cl::ClFile,
+        made: Result<Scratch, String>,
+        row: fn(&mut String, usize, usize, &BlockResult, &Machine),
+        what: String,
+    ) -> BlockRows<'a> {
+        let (scratch, failed) = match made {
             Ok(scratch) => (Some(scratch), None),
-            Err(e) => (None, Some(format!("error: cannot make a scratch file for the block rows: {e}\n"))),
+            Err(e) => (None, Some(e)),
         };
-        BlockRows { scratch, lines: LinesOf::new(file), count: 0, failed }
+        BlockRows { file, scratch, lines: LinesOf::default(), row, count: 0, what, failed }
     }
 
     /// The row of the next block, final.
     pub(crate) fn push(&mut self, b: &BlockResult, machine: &Machine) {
         let Some(scratch) = self.scratch.as_mut().filter(|_| self.failed.is_none()) else { return };
-        let written = self.lines.line(b.span.start).and_then(|line| {
-            block_row(&mut scratch.text, self.count, line, b, machine);
+        let written = self.lines.line_col(self.file, b.span.start).and_then(|at| {
+            (self.row)(&mut scratch.text, self.count, at.line, b, machine);
             self.count += 1;
             flush_now_and_then(scratch)
         });
         if let Err(e) = written {
-            self.failed = Some(format!("error: cannot write the block rows: {e}\n"));
+            self.failed = Some(format!("error: cannot write {}: {e}\n", self.what));
         }
     }
 
@@ -727,18 +756,19 @@ impl<'a> BlockRows<'a> {
 }
 
 /// Writes a scratch file's rows on once they are some 64 kB.
-fn flush_now_and_then(scratch: &mut Scratch) -> Result<(), String> {
-    if scratch.text.len() < 1 << 16 { Ok(()) } else { scratch.flush_text().map_err(|e| e.to_string()) }
+fn flush_now_and_then(scratch: &mut Scratch) -> std::io::Result<()> {
+    if scratch.text.len() < 1 << 16 { Ok(()) } else { scratch.flush_text() }
 }
 
 /// `--csv` streamed: the samples' rows as the prediction takes them and the blocks' as it makes
-/// them final, each in a file beside its target, renamed over it once the prediction is whole
-/// ([`CsvFiles::keep`]): an error leaves neither. The first error is kept and said at the end.
+/// them final ([`BlockRows`]), each in a file beside its target, renamed over it once the
+/// prediction is whole ([`CsvFiles::keep`]): an error leaves neither. The first error is kept and
+/// said at the end.
 pub(crate) struct CsvRows<'a> {
-    files: Option<CsvFiles>,
-    lines: LinesOf<'a>,
-    /// The block rows written.
-    count: usize,
+    samples: Option<Scratch>,
+    samples_path: PathBuf,
+    blocks: BlockRows<'a>,
+    blocks_path: PathBuf,
     failed: Option<String>,
 }
 
@@ -763,48 +793,38 @@ impl<'a> CsvRows<'a> {
     /// beside it, `.blocks.csv`).
     pub(crate) fn new(file: &'a postpro_cl::ClFile, path: &Path, machine: &Machine) -> CsvRows<'a> {
         let blocks_path = path.with_extension("blocks.csv");
-        let made = |target: &Path, header: String| {
-            let mut scratch = Scratch::beside(target)?;
-            scratch.text = header;
-            Ok::<_, std::io::Error>((scratch, target.to_path_buf()))
-        };
-        let files = made(path, samples_header(machine))
-            .and_then(|samples| Ok(CsvFiles { samples, blocks: made(&blocks_path, BLOCKS_CSV_HEADER.to_string())? }));
-        let (files, failed) = match files {
-            Ok(files) => (Some(files), None),
+        let (samples, failed) = match Scratch::beside(path) {
+            Ok(mut scratch) => {
+                scratch.text = samples_header(machine);
+                (Some(scratch), None)
+            }
             Err(e) => (None, Some(format!("error: cannot write {}: {e}\n", path.display()))),
         };
-        CsvRows { files, lines: LinesOf::new(file), count: 0, failed }
+        let blocks = BlockRows::csv(file, &blocks_path);
+        CsvRows { samples, samples_path: path.to_path_buf(), blocks, blocks_path, failed }
     }
 
     /// The rows of the samples taken since the last call.
     pub(crate) fn samples(&mut self, samples: &postpro_predict::Samples, machine: &Machine) {
-        let Some(files) = self.files.as_mut().filter(|_| self.failed.is_none()) else { return };
-        let scratch = &mut files.samples.0;
+        let Some(scratch) = self.samples.as_mut().filter(|_| self.failed.is_none()) else { return };
         sample_rows(&mut scratch.text, samples, machine);
         if let Err(e) = flush_now_and_then(scratch) {
-            self.failed = Some(format!("error: cannot write {}: {e}\n", files.samples.1.display()));
+            self.failed = Some(format!("error: cannot write {}: {e}\n", self.samples_path.display()));
         }
     }
 
     /// The row of the next block, final.
     pub(crate) fn block(&mut self, b: &BlockResult, machine: &Machine) {
-        let Some(files) = self.files.as_mut().filter(|_| self.failed.is_none()) else { return };
-        let scratch = &mut files.blocks.0;
-        let written = self.lines.line(b.span.start).and_then(|line| {
-            block_csv_row(&mut scratch.text, self.count, line, b, machine);
-            self.count += 1;
-            flush_now_and_then(scratch)
-        });
-        if let Err(e) = written {
-            self.failed = Some(format!("error: cannot write {}: {e}\n", files.blocks.1.display()));
-        }
+        self.blocks.push(b, machine);
     }
 
     /// The files, or the first error.
     pub(crate) fn finish(self) -> Result<CsvFiles, String> {
-        match (self.failed, self.files) {
-            (None, Some(files)) => Ok(files),
+        let blocks = self.blocks.finish();
+        match (self.failed, self.samples) {
+            (None, Some(samples)) => {
+                Ok(CsvFiles { samples: (samples, self.samples_path), blocks: (blocks?, self.blocks_path) })
+            }
             (failed, _) => Err(failed.unwrap_or_default()),
         }
     }

@@ -82,24 +82,20 @@ impl Drop for Scratch {
     }
 }
 
-/// The CL lines of offsets of `file` asked for in increasing order, read on as they come (the
-/// file opened again at the first).
-pub(crate) struct LinesOf<'a> {
-    file: &'a postpro_cl::ClFile,
+/// The lines and columns of offsets of a CL file asked for in increasing order, read on as they
+/// come (the file opened again at the first).
+#[derive(Default)]
+pub(crate) struct LinesOf {
     lines: Option<postpro_cl::Lines>,
 }
 
-impl<'a> LinesOf<'a> {
-    pub(crate) fn new(file: &'a postpro_cl::ClFile) -> LinesOf<'a> {
-        LinesOf { file, lines: None }
-    }
-
-    /// The line of byte `offset`, or what went wrong reading the file again.
-    pub(crate) fn line(&mut self, offset: u32) -> Result<usize, String> {
+impl LinesOf {
+    /// The line and column of byte `offset` of `file` (the same file at every call).
+    pub(crate) fn line_col(&mut self, file: &postpro_cl::ClFile, offset: u32) -> std::io::Result<postpro_cl::LineCol> {
         let lines = match &mut self.lines {
             Some(lines) => lines,
-            None => self.lines.insert(self.file.lines().map_err(|e| e.to_string())?),
+            None => self.lines.insert(file.lines().map_err(std::io::Error::other)?),
         };
-        lines.line_col(offset as usize).map(|at| at.line).map_err(|e| e.to_string())
+        lines.line_col(offset as usize)
     }
 }

@@ -20,7 +20,7 @@ use postpro_plugins::{Plugins, Solver};
 
 use crate::job::fail;
 use crate::report;
-use crate::scratch::Scratch;
+use crate::scratch::{LinesOf, Scratch};
 
 /// Arguments of `postpro solve`.
 #[derive(Debug, clap::Args)]
@@ -282,13 +282,13 @@ struct Seen {
     /// Each decision: where, and what.
     decisions: Vec<String>,
     /// Where the decisions are, read on as they come (opened with the first).
-    lines: Option<postpro_cl::Lines>,
+    lines: LinesOf,
 }
 
 impl Seen {
     fn new(machine: &Machine) -> Seen {
         let ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); machine.axes.len()];
-        Seen { positions: 0, cl: 0, ranges, decisions: Vec::new(), lines: None }
+        Seen { positions: 0, cl: 0, ranges, decisions: Vec::new(), lines: LinesOf::default() }
     }
 
     /// Takes in one CL item's steps and decisions.
@@ -309,21 +309,10 @@ impl Seen {
             }
         }
         for d in &collected.decisions {
-            let at = lines_of(&mut self.lines, file)?.line_col(d.span.start as usize)?;
+            let at = self.lines.line_col(file, d.span.start)?;
             self.decisions.push(format!("  {}:{}:{}: {}", file.name(), at.line, at.column, d.decision));
         }
         Ok(())
-    }
-}
-
-/// The line finder in `lines`, opened on `file` the first time.
-fn lines_of<'l>(
-    lines: &'l mut Option<postpro_cl::Lines>,
-    file: &postpro_cl::ClFile,
-) -> std::io::Result<&'l mut postpro_cl::Lines> {
-    match lines {
-        Some(lines) => Ok(lines),
-        None => Ok(lines.insert(file.lines().map_err(std::io::Error::other)?)),
     }
 }
 
@@ -332,13 +321,13 @@ struct Rows {
     scratch: Scratch,
     index: usize,
     /// The CL lines of the steps, read on as they come (opened with the first).
-    lines: Option<postpro_cl::Lines>,
+    lines: LinesOf,
 }
 
 impl Rows {
     /// A scratch file in the temporary folder, with the header row.
     fn new(machine: &Machine) -> std::io::Result<Rows> {
-        let mut rows = Rows { scratch: Scratch::new("solve.csv")?, index: 0, lines: None };
+        let mut rows = Rows { scratch: Scratch::new("solve.csv")?, index: 0, lines: LinesOf::default() };
         let text = &mut rows.scratch.text;
         text.push_str("step,line,kind,rapid");
         for a in &machine.axes {
@@ -359,7 +348,7 @@ impl Rows {
         frame: &WorkFrame,
     ) -> std::io::Result<()> {
         for s in &collected.steps {
-            let line = lines_of(&mut self.lines, file)?.line_col(s.span.start as usize)?.line;
+            let line = self.lines.line_col(file, s.span.start)?.line;
             let joints = frame.apply(&s.joints);
             let text = &mut self.scratch.text;
             let _ = write!(text, "{},{line},{},{}", self.index, kind(s.kind), u8::from(s.rapid));

@@ -322,10 +322,8 @@ impl Predicting<'_> {
                 csv.block(result, self.machine);
             }
         }
-        if let Some(csv) = &mut self.csv
-            && let Some(samples) = self.predictor.take_samples()
-        {
-            csv.samples(&samples, self.machine);
+        if let Some(csv) = &mut self.csv {
+            self.predictor.drain_samples(|samples| csv.samples(samples, self.machine));
         }
     }
 }
@@ -876,7 +874,7 @@ impl<'a> Passes<'a> {
             ),
             marks: MarkFinder::new(marks.rules(prediction)),
             forget_at: FORGET_EVERY,
-            rows: every_block.then(|| crate::predict::BlockRows::new(self.file)),
+            rows: every_block.then(|| crate::predict::BlockRows::table(self.file)),
             csv: csv.map(|path| crate::predict::CsvRows::new(self.file, path, kin.machine())),
         })
     }
